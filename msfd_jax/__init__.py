@@ -1,0 +1,68 @@
+"""msfd-jax: a differentiable JAX solver for ring-on-beam collisions (Ruan & Yu 2003, MS-FD)."""
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+from ._chain import Chain, Section, rectangular_section  # noqa: E402
+from ._contact import AbstractContact, NodeToNodeContact, NodeToPlaneContact  # noqa: E402
+from ._dynamics import State, critical_step, initial_state, max_frequency, respond  # noqa: E402
+from ._laws import contact_energy, contact_spring, elastic_plastic, ramp  # noqa: E402
+from ._outputs import (  # noqa: E402
+    FRACTION_KEYS,
+    Collision,
+    SimulationError,
+    diagnose,
+    fractions,
+    run,
+)
+from ._params import PAPER_SI, CollisionParams, Mesh, Scales, from_si, validate  # noqa: E402
+from ._scene import (  # noqa: E402
+    Drive,
+    Scene,
+    beam_midspan_load,
+    cantilever_tip_mass,
+    ring_on_beam,
+    ring_on_plate,
+)
+from ._simulate import RESULT_NAMES, Settings, Solution, simulate  # noqa: E402
+
+__all__ = [
+    "FRACTION_KEYS",
+    "Collision",
+    "SimulationError",
+    "diagnose",
+    "fractions",
+    "run",
+    "AbstractContact",
+    "Chain",
+    "CollisionParams",
+    "Drive",
+    "Mesh",
+    "NodeToNodeContact",
+    "NodeToPlaneContact",
+    "PAPER_SI",
+    "RESULT_NAMES",
+    "Scales",
+    "Scene",
+    "Section",
+    "Settings",
+    "Solution",
+    "State",
+    "beam_midspan_load",
+    "cantilever_tip_mass",
+    "contact_energy",
+    "contact_spring",
+    "critical_step",
+    "elastic_plastic",
+    "from_si",
+    "initial_state",
+    "max_frequency",
+    "ramp",
+    "rectangular_section",
+    "respond",
+    "ring_on_beam",
+    "ring_on_plate",
+    "simulate",
+    "validate",
+]

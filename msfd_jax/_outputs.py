@@ -1,0 +1,172 @@
+"""User-facing results: the energy partition, checks, and readable failure messages."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._params import CollisionParams, Mesh
+from ._scene import Scene, ring_on_beam
+from ._simulate import (
+    ENERGY_BALANCE,
+    MAX_STEPS,
+    NON_FINITE,
+    RESULT_NAMES,
+    SETTLED,
+    TIME_LIMIT,
+    Settings,
+    Solution,
+    simulate,
+)
+
+FRACTION_KEYS = (
+    "beam_bending",
+    "beam_axial",
+    "ring_bending",
+    "ring_axial",
+    "contact",
+    "kinetic",
+    "elastic",
+)
+
+
+class SimulationError(RuntimeError):
+    """A run that went non-finite, broke its energy balance, or ran out of steps."""
+
+
+def fractions(solution: Solution, scene: Scene) -> dict[str, Any]:
+    """Energy partition as fractions of K0 (arrays; batched if the solution is).
+
+    Keys: ``beam_bending, beam_axial, ring_bending, ring_axial, contact, kinetic, elastic``
+    (absent structures give 0) and the kinetic split ``kinetic_ring, kinetic_block,
+    kinetic_beam`` (the ring's share excludes the block g).
+    """
+    k0 = solution.k0
+    out: dict[str, Any] = {}
+    zeros = jnp.zeros_like(k0)
+    for name in ("beam", "ring"):
+        i = scene.chain_index(name)
+        out[f"{name}_bending"] = zeros if i is None else solution.bending[..., i] / k0
+        out[f"{name}_axial"] = zeros if i is None else solution.axial[..., i] / k0
+    out["contact"] = jnp.sum(solution.contact, -1) / k0
+    out["kinetic"] = jnp.sum(solution.kinetic, -1) / k0
+    out["elastic"] = solution.elastic / k0
+    ring, beam = scene.chain_index("ring"), scene.chain_index("beam")
+    block = solution.kinetic_block / k0
+    out["kinetic_ring"] = zeros if ring is None else solution.kinetic[..., ring] / k0 - block
+    out["kinetic_block"] = block
+    out["kinetic_beam"] = zeros if beam is None else solution.kinetic[..., beam] / k0
+    return out
+
+
+def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
+    """A readable account of how one run ended: when, where, likely cause and remedy."""
+    sol = solution if index is None else jax.tree_util.tree_map(lambda a: a[index], solution)
+    code = int(sol.result)
+    t = float(sol.t_end)
+    dt, dt_crit = float(sol.dt), float(sol.dt_critical)
+    if code == SETTLED:
+        return f"settled: plastic dissipation stopped; ended at tau = {t:.4g}"
+    if code == TIME_LIMIT:
+        return f"reached the time cap tau = {t:.4g} (dissipation had not stopped)"
+    if code == MAX_STEPS:
+        return (
+            f"stopped at tau = {t:.4g} after the maximum number of steps ({int(sol.steps)}); "
+            "raise Settings.max_steps or the step size"
+        )
+    where = []
+    for c, x, v in zip(scene.chains, sol.final.x, sol.final.v, strict=True):
+        bad = ~(np.isfinite(np.asarray(x)).all(-1) & np.isfinite(np.asarray(v)).all(-1))
+        if bad.any():
+            where.append(f"{c.name} node {int(np.argmax(bad))}")
+    place = ", ".join(where) if where else "energy bookkeeping"
+    ratio = dt / dt_crit
+    cause = (
+        f"the step dt = {dt:.3g} is {ratio:.2f} x the computed stability limit {dt_crit:.3g}"
+        if ratio > 0.95
+        else "an extreme parameter (very stiff contact, very thin section, or huge velocity)"
+    )
+    what = "became non-finite" if code == NON_FINITE else "broke its energy balance"
+    err = float(sol.energy_balance_error) if code == ENERGY_BALANCE else float("nan")
+    detail = f" (error {err:.3g} K0)" if code == ENERGY_BALANCE else ""
+    return (
+        f"the solve {what}{detail} at tau = {t:.4g} in the {place}; likely cause: {cause}; "
+        "remedy: lower Settings.safety (CLI --safety) or give a smaller dt"
+    )
+
+
+@dataclasses.dataclass
+class Collision:
+    """One finished ring-on-beam collision, with its partition and provenance."""
+
+    params: CollisionParams
+    mesh: Mesh
+    scene: Scene
+    solution: Solution
+    wall_time_s: float
+
+    @property
+    def fractions(self) -> dict[str, float]:
+        return {k: float(v) for k, v in fractions(self.solution, self.scene).items()}
+
+    @property
+    def energy_balance_error(self) -> float:
+        return float(self.solution.energy_balance_error)
+
+    @property
+    def status(self) -> str:
+        return RESULT_NAMES[int(self.solution.result)]
+
+    @property
+    def message(self) -> str:
+        return diagnose(self.solution, self.scene)
+
+    def to_json(self) -> dict[str, Any]:
+        f = self.fractions
+        return {
+            "fractions": {k: f[k] for k in FRACTION_KEYS},
+            "kinetic_split": {k: f[k] for k in ("kinetic_ring", "kinetic_block", "kinetic_beam")},
+            "energy_balance_error": self.energy_balance_error,
+            "t_end": float(self.solution.t_end),
+            "steps": int(self.solution.steps),
+            "dt": float(self.solution.dt),
+            "dt_critical": float(self.solution.dt_critical),
+            "k0": float(self.solution.k0),
+            "status": self.status,
+            "wall_time_s": self.wall_time_s,
+            "params": {
+                f.name: float(np.asarray(getattr(self.params, f.name)))
+                for f in dataclasses.fields(self.params)
+            },
+        }
+
+
+def run(
+    params: CollisionParams = CollisionParams(),
+    mesh: Mesh = Mesh(),
+    settings: Settings = Settings(),
+    *,
+    contact_smoothing: float = 0.0,
+    yield_smoothing: float = 0.0,
+    check: bool = True,
+) -> Collision:
+    """Run one ring-on-beam collision with every input checked; raise if it failed.
+
+    Raises `SimulationError` (with `diagnose`'s message) when the run went non-finite, broke
+    its energy balance or hit the step bound, unless ``check=False``.
+    """
+    scene = ring_on_beam(
+        params, mesh, contact_smoothing=contact_smoothing, yield_smoothing=yield_smoothing
+    )
+    start = time.perf_counter()
+    solution = jax.block_until_ready(simulate(scene, settings))
+    wall = time.perf_counter() - start
+    collision = Collision(params, mesh, scene, solution, wall)
+    if check and int(solution.result) in (NON_FINITE, ENERGY_BALANCE, MAX_STEPS):
+        raise SimulationError(collision.message)
+    return collision

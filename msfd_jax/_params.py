@@ -1,0 +1,233 @@
+"""Collision inputs: the non-dimensional groups of Eq. (1), their SI form, and validation.
+
+Everything the solver needs is a non-dimensional group scaled by the *ring* (Eq. 1):
+moment M_pr = Y b h_r^2 / 4, mass per length mu_r = rho b h_r, length R,
+time T = sqrt(mu_r R^3 / M_pr). This module is the one place where SI inputs are converted
+and where every input is checked.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+# Allowed ranges: (low, high, low_inclusive, high_inclusive). Chosen to exclude only what is
+# non-physical or outside what the discrete model can represent (see docs/model.md).
+_RANGES: dict[str, tuple[float, float, bool, bool]] = {
+    "thickness_ratio": (0.0, 100.0, False, True),
+    "modulus_ratio": (1.0, 1.0e7, False, True),
+    "slenderness": (2.0, 1.0e4, True, True),
+    "mass_ratio": (0.0, 1.0e7, True, True),
+    "velocity": (0.0, 1.0e3, False, True),
+    "width_ratio": (0.0, 100.0, False, True),
+    "axial_constraint": (0.0, 1.0, True, True),
+}
+
+_DESCRIPTIONS = {
+    "thickness_ratio": "h_b/h_r, beam to ring thickness",
+    "modulus_ratio": "E/Y, Young's modulus over yield stress",
+    "slenderness": "R/h_r, ring radius over ring thickness",
+    "mass_ratio": "g = G/(mu_r R), half block mass over ring mass per radius",
+    "velocity": "v0 = V0 sqrt(mu_r R / M_pr), impact velocity",
+    "span_ratio": "L_b/R, beam half span over ring radius",
+    "width_ratio": "b_b/b_r, beam to ring width",
+    "axial_constraint": "1 for an axially constrained beam, 0 for a free one",
+}
+
+
+def _check_value(name: str, value: Any, low: float, high: float, lo_in: bool, hi_in: bool):
+    """Raise a ValueError naming `name` unless every element of `value` is in range."""
+    if isinstance(value, jax.core.Tracer):
+        return  # validated where it was concrete (the public entry points)
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"{name} ({_DESCRIPTIONS.get(name, name)}) must be a real number, got "
+            f"{type(value).__name__} {value!r}"
+        ) from None
+    lo_br, hi_br = ("[" if lo_in else "("), ("]" if hi_in else ")")
+    allowed = f"allowed {lo_br}{low:g}, {high:g}{hi_br}"
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(
+            f"{name} ({_DESCRIPTIONS.get(name, name)}) must be finite, got {value!r}; {allowed}"
+        )
+    ok = ((arr >= low) if lo_in else (arr > low)) & ((arr <= high) if hi_in else (arr < high))
+    if not np.all(ok):
+        bad = arr[~ok].ravel()[0]
+        raise ValueError(
+            f"{name} ({_DESCRIPTIONS.get(name, name)}) = {bad:g} is out of range; {allowed}"
+        )
+
+
+def _check_count(name: str, value: Any, minimum: int):
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise TypeError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    if value < minimum:
+        raise ValueError(f"{name} = {value} is below what the model needs; allowed >= {minimum}")
+
+
+class Mesh(eqx.Module):
+    """Node counts (static: they fix array shapes, so they are part of the compiled program).
+
+    **Arguments:**
+    - `ring_segments`: segments of the quarter ring S->G (paper: 15).
+    - `beam_contact_segments`: equal segments over the possible contact region OC (paper: 20).
+    - `beam_outer_segments`: equal segments over CE (paper: 25 - 20 = 5).
+    - `contact_region`: length of OC in units of R (paper: 2).
+    """
+
+    ring_segments: int = eqx.field(static=True, default=15)
+    beam_contact_segments: int = eqx.field(static=True, default=20)
+    beam_outer_segments: int = eqx.field(static=True, default=5)
+    contact_region: float = eqx.field(static=True, default=2.0)
+
+    def __check_init__(self):
+        _check_count("ring_segments", self.ring_segments, 3)
+        _check_count("beam_contact_segments", self.beam_contact_segments, 2)
+        _check_count("beam_outer_segments", self.beam_outer_segments, 1)
+        _check_value("contact_region", self.contact_region, 0.0, 1.0e3, False, True)
+
+    def refined(self, factor: int) -> Mesh:
+        """The same mesh with every segment count multiplied by `factor`."""
+        return Mesh(
+            self.ring_segments * factor,
+            self.beam_contact_segments * factor,
+            self.beam_outer_segments * factor,
+            self.contact_region,
+        )
+
+
+class CollisionParams(eqx.Module):
+    """The non-dimensional groups of one ring-on-beam collision (Sect. 2, Eq. 1).
+
+    All fields are arrays (differentiable, vmappable); the defaults are the paper's showcase
+    (Fig. 13): h_b/h_r = 2.5, E/Y = 500, R/h_r = 10, g = 10, v0 = 0.82, L_b = 3R, constrained.
+
+    **Arguments:**
+    - `thickness_ratio`: h_b/h_r.
+    - `modulus_ratio`: E/Y.
+    - `slenderness`: R/h_r.
+    - `mass_ratio`: g = G/(mu_r R), G half the block's mass.
+    - `velocity`: v0 = V0 sqrt(mu_r R / M_pr).
+    - `span_ratio`: L_b/R, half span of the beam.
+    - `width_ratio`: b_b/b_r.
+    - `axial_constraint`: 1.0 (x_E = 0, Eq. 20) or 0.0 (free to slide).
+    """
+
+    thickness_ratio: Any = 2.5
+    modulus_ratio: Any = 500.0
+    slenderness: Any = 10.0
+    mass_ratio: Any = 10.0
+    velocity: Any = 0.82
+    span_ratio: Any = 3.0
+    width_ratio: Any = 1.0
+    axial_constraint: Any = 1.0
+
+    def __check_init__(self):
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name == "axial_constraint" and isinstance(value, bool):
+                continue
+            if f.name == "span_ratio":
+                continue  # checked against the mesh in `validate`
+            _check_value(f.name, value, *_RANGES[f.name])
+
+    def as_arrays(self) -> CollisionParams:
+        """Every field as a float64 array (what the compiled solver sees)."""
+        return jax.tree_util.tree_map(lambda v: jnp.asarray(v, dtype=jnp.float64), self)
+
+    @property
+    def initial_kinetic_energy(self):
+        """K0 of the half model from the continuous masses, (g + pi/2) v0^2 / 2 (Fig. 24)."""
+        return 0.5 * (self.mass_ratio + math.pi / 2) * self.velocity**2
+
+
+def validate(params: CollisionParams, mesh: Mesh) -> None:
+    """Check the combination of parameters and mesh (what a single field cannot check)."""
+    _check_value("span_ratio", params.span_ratio, mesh.contact_region, 1.0e4, False, True)
+
+
+@dataclasses.dataclass(frozen=True)
+class Scales:
+    """SI values of the non-dimensional units (Eq. 1), to convert results back."""
+
+    moment: float  # M_pr [N m]  (also the energy unit [J])
+    length: float  # R [m]
+    time: float  # T = sqrt(mu_r R^3 / M_pr) [s]
+    velocity: float  # R / T [m/s]
+    force: float  # M_pr / R [N]
+
+
+def from_si(
+    *,
+    youngs_modulus: float,
+    yield_stress: float,
+    density: float,
+    radius: float,
+    width: float,
+    ring_thickness: float,
+    beam_thickness: float,
+    beam_half_span: float,
+    velocity: float,
+    block_mass: float,
+    beam_width: float | None = None,
+    axial_constraint: bool = True,
+) -> tuple[CollisionParams, Scales]:
+    """Convert SI inputs (Pa, kg/m^3, m, m/s, kg) into `CollisionParams` and unit scales.
+
+    `block_mass` is the whole rigid block 2G; `beam_half_span` is L_b (the span is 2 L_b).
+    """
+    si = dict(
+        youngs_modulus=youngs_modulus,
+        yield_stress=yield_stress,
+        density=density,
+        radius=radius,
+        width=width,
+        ring_thickness=ring_thickness,
+        beam_thickness=beam_thickness,
+        beam_half_span=beam_half_span,
+        velocity=velocity,
+    )
+    for name, value in si.items():
+        _check_value(name, value, 0.0, math.inf, False, False)
+    _check_value("block_mass", block_mass, 0.0, math.inf, True, False)
+    if beam_width is not None:
+        _check_value("beam_width", beam_width, 0.0, math.inf, False, False)
+    b_b = width if beam_width is None else beam_width
+    mu_r = density * width * ring_thickness
+    m_pr = yield_stress * width * ring_thickness**2 / 4.0
+    t_scale = math.sqrt(mu_r * radius**3 / m_pr)
+    params = CollisionParams(
+        thickness_ratio=beam_thickness / ring_thickness,
+        modulus_ratio=youngs_modulus / yield_stress,
+        slenderness=radius / ring_thickness,
+        mass_ratio=0.5 * block_mass / (mu_r * radius),
+        velocity=velocity * t_scale / radius,
+        span_ratio=beam_half_span / radius,
+        width_ratio=b_b / width,
+        axial_constraint=1.0 if axial_constraint else 0.0,
+    )
+    scales = Scales(m_pr, radius, t_scale, radius / t_scale, m_pr / radius)
+    return params, scales
+
+
+PAPER_SI = dict(
+    youngs_modulus=70e9,
+    yield_stress=140e6,
+    density=2680.0,
+    radius=0.5,
+    width=0.05,
+    ring_thickness=0.05,
+    beam_thickness=0.125,
+    beam_half_span=1.5,
+    velocity=30.0,
+    block_mass=2 * 10 * 2680.0 * 0.05 * 0.05 * 0.5,
+)
+"""The paper's base case in SI (R/b = R/h_r = 10, L_b = 3R, g = 10, h_b/h_r = 2.5; R = 0.5 m)."""

@@ -1,0 +1,251 @@
+"""Integrate a scene with diffrax until plastic dissipation has stopped (or a cap).
+
+Stopping rule (docs/model.md): a collision ends at the first tau >= `t_min` at which the total
+dissipated energy has not grown by more than `settle_tolerance` K0 for `settle_window`; it is
+capped at `t_max`. Guards: a non-finite state, or an energy balance error above
+`energy_guard` K0, stops the run with a result code (never a silent NaN).
+"""
+
+from __future__ import annotations
+
+import math
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from ._dynamics import State, critical_step, initial_state
+from ._scene import Scene
+from ._solver import VelocityVerlet, rate_form
+
+_critical_step = eqx.filter_jit(critical_step)
+
+SETTLED, TIME_LIMIT, NON_FINITE, ENERGY_BALANCE, MAX_STEPS = range(5)
+RESULT_NAMES = ("settled", "time limit", "non-finite", "energy balance broken", "max steps")
+
+
+class Settings(eqx.Module):
+    """How to integrate (numerics), apart from what is integrated (the scene).
+
+    **Arguments:**
+    - `safety`: dt = safety * dt_crit, dt_crit = 2/omega_max the computed stability limit.
+    - `dt`: a fixed step that overrides `safety` (non-dimensional time).
+    - `t_max`: cap on the run length. `t_min`: never stop before this.
+    - `settle_window`, `settle_tolerance`: the stopping rule (tolerance in units of K0).
+    - `stop_when_settled`: False runs to `t_max` (driven, quasi-static scenes).
+    - `history_points`: samples of the energy/contact histories over [0, t_max].
+    - `shape_times`: times at which node positions are saved.
+    - `energy_guard`: stop when |energy balance error| exceeds this fraction of K0.
+    - `max_steps`: static bound on the number of steps (None: from t_max / dt).
+    """
+
+    safety: float = 0.5
+    dt: float | None = None
+    t_max: float = 10.0
+    t_min: float = 0.2
+    settle_window: float = 0.5
+    settle_tolerance: float = 1e-5
+    stop_when_settled: bool = eqx.field(static=True, default=True)
+    history_points: int = eqx.field(static=True, default=1001)
+    shape_times: tuple[float, ...] = eqx.field(static=True, default=(0.15, 0.49, 0.75, 1.5))
+    energy_guard: float = 0.05
+    max_steps: int | None = eqx.field(static=True, default=None)
+
+    def __check_init__(self):
+        for name in ("safety", "t_max", "settle_window", "energy_guard"):
+            v = getattr(self, name)
+            if not isinstance(v, jax.core.Tracer) and not (math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+        if self.dt is not None and not isinstance(self.dt, jax.core.Tracer):
+            if not (math.isfinite(self.dt) and self.dt > 0):
+                raise ValueError(f"dt must be a positive finite number, got {self.dt!r}")
+        if any(not (0.0 <= t <= self.t_max) for t in self.shape_times):
+            raise ValueError(
+                f"shape_times must lie in [0, t_max={self.t_max}], got {self.shape_times}"
+            )
+        if self.history_points < 2:
+            raise ValueError(f"history_points must be >= 2, got {self.history_points}")
+
+
+class Solution(eqx.Module):
+    """Everything a run produces (arrays; vmapped runs give a leading batch axis).
+
+    Energies are in units of M_pr (divide by `k0` for fractions of the initial kinetic energy).
+    Per-chain arrays follow the scene's chain order; per-contact arrays its contact order.
+    """
+
+    result: Array
+    t_end: Array
+    steps: Array
+    dt: Array
+    dt_critical: Array
+    k0: Array
+    bending: Array
+    axial: Array
+    contact: Array
+    kinetic: Array
+    kinetic_block: Array
+    elastic: Array
+    drive_work: Array
+    final: State
+    ts: Float[Array, " history"]
+    history: dict
+    shape_ts: Array
+    shapes: tuple
+
+    @property
+    def energy_balance_error(self):
+        """(K + U + D - K0 - W_drive) / K0 at the end of the run."""
+        total = (
+            jnp.sum(self.kinetic, -1)
+            + self.elastic
+            + jnp.sum(self.bending, -1)
+            + jnp.sum(self.axial, -1)
+            + jnp.sum(self.contact, -1)
+        )
+        k0 = jnp.where(self.k0 > 0, self.k0, 1.0)
+        return (total - self.k0 - self.drive_work) / k0
+
+
+def _history(t, y: State, args):
+    scene = args[0]
+    pair_force = tuple(jnp.sum(f) for f in y.contact_force)
+    return dict(
+        kinetic=y.kinetic(scene),
+        elastic=y.elastic,
+        bending=y.bending,
+        axial=y.axial,
+        contact=y.contact,
+        contact_force=jnp.stack(pair_force) if pair_force else jnp.zeros(0),
+        contact_pairs=tuple(f > 0 for f in y.contact_force),
+        reaction=y.reaction,
+        drive_work=y.drive_work,
+    )
+
+
+def _shapes(t, y: State, args):
+    return y.x
+
+
+def _energy_error(scene: Scene, y: State, k0):
+    total = jnp.sum(y.kinetic(scene)) + y.elastic + y.dissipated
+    return (total - k0 - y.drive_work) / jnp.where(k0 > 0, k0, 1.0)
+
+
+def step_size(scene: Scene, settings: Settings):
+    """(dt, dt_crit): the step used and the computed stability limit (not differentiated)."""
+    dt_crit = jax.lax.stop_gradient(_critical_step(scene))
+    dt = dt_crit * settings.safety if settings.dt is None else jnp.asarray(settings.dt)
+    return dt, dt_crit
+
+
+def max_steps_for(scene: Scene, settings: Settings) -> int:
+    """Static step bound: t_max / dt rounded up to a power of two (few recompilations)."""
+    if settings.max_steps is not None:
+        return settings.max_steps
+    dt, _ = step_size(scene, settings)
+    try:
+        n = float(jnp.max(settings.t_max / dt))
+    except jax.errors.ConcretizationTypeError:
+        raise ValueError("under jit/vmap give Settings(max_steps=...) explicitly") from None
+    return 2 ** max(8, math.ceil(math.log2(1.02 * n + 16)))
+
+
+@eqx.filter_jit
+def _simulate(scene: Scene, settings: Settings, max_steps: int, adjoint) -> Solution:
+    y0 = initial_state(scene)
+    k0 = scene.initial_kinetic_energy
+    dt, dt_crit = step_size(scene, settings)
+    tolerance = settings.settle_tolerance * k0
+
+    def stop(t, y, args, **kwargs):
+        err = _energy_error(scene, y, k0)
+        broken = ~jnp.isfinite(err) | (jnp.abs(err) > settings.energy_guard)
+        if not settings.stop_when_settled:
+            return broken
+        quiet = (t - y.last_dissipation > settings.settle_window) & (t >= settings.t_min)
+        return broken | quiet
+
+    ts = jnp.linspace(0.0, settings.t_max, settings.history_points)
+    shape_ts = jnp.asarray(sorted({0.0, *settings.shape_times}), float)
+    saveat = diffrax.SaveAt(
+        subs=[
+            diffrax.SubSaveAt(ts=ts, fn=_history),
+            diffrax.SubSaveAt(ts=shape_ts, fn=_shapes),
+            diffrax.SubSaveAt(t1=True),
+        ]
+    )
+    sol = diffrax.diffeqsolve(
+        diffrax.ODETerm(rate_form),
+        VelocityVerlet(),
+        t0=0.0,
+        t1=settings.t_max,
+        dt0=dt,
+        y0=y0,
+        args=(scene, tolerance),
+        saveat=saveat,
+        stepsize_controller=diffrax.ConstantStepSize(),
+        event=diffrax.Event(stop),
+        max_steps=max_steps,
+        adjoint=adjoint,
+        throw=False,
+    )
+    hist, shapes, last = sol.ys
+    final = jax.tree_util.tree_map(lambda a: a[-1], last)
+    t_end = sol.ts[2][-1]
+    err = _energy_error(scene, final, k0)
+    code = jnp.where(
+        ~jnp.isfinite(err),
+        NON_FINITE,
+        jnp.where(
+            jnp.abs(err) > settings.energy_guard,
+            ENERGY_BALANCE,
+            jnp.where(
+                sol.result == diffrax.RESULTS.max_steps_reached,
+                MAX_STEPS,
+                jnp.where(t_end < settings.t_max, SETTLED, TIME_LIMIT),
+            ),
+        ),
+    )
+    kinetic = final.kinetic(scene)
+    block = sum(
+        0.5 * c.attached_mass * jnp.sum(v[-1] ** 2)
+        for c, v in zip(scene.chains, final.v, strict=True)
+    )
+    return Solution(
+        result=code,
+        t_end=t_end,
+        steps=sol.stats["num_steps"],
+        dt=dt,
+        dt_critical=dt_crit,
+        k0=k0,
+        bending=final.bending,
+        axial=final.axial,
+        contact=final.contact,
+        kinetic=kinetic,
+        kinetic_block=jnp.asarray(block),
+        elastic=final.elastic,
+        drive_work=final.drive_work,
+        final=final,
+        ts=ts,
+        history=hist,
+        shape_ts=shape_ts,
+        shapes=shapes,
+    )
+
+
+def simulate(
+    scene: Scene, settings: Settings = Settings(), *, adjoint: diffrax.AbstractAdjoint | None = None
+) -> Solution:
+    """Run one scene (jit/vmap/grad-compatible; see `run` for the checked, user-facing form).
+
+    **Arguments:**
+    - `scene`: what to simulate (`ring_on_beam`, ...).
+    - `settings`: how to integrate (`Settings`).
+    - `adjoint`: how to differentiate: diffrax's ``RecursiveCheckpointAdjoint`` (default,
+      reverse mode) or ``ForwardMode`` (for ``jax.jvp``, cheapest for few design variables).
+    """
+    adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
+    return _simulate(scene, settings, max_steps_for(scene, settings), adjoint)
