@@ -1,0 +1,223 @@
+"""Figures of one collision: energy histories, shapes, contact force and contact pairs (Fig. 13).
+
+Figures are built on `matplotlib.figure.Figure` directly, not through `pyplot`: no global
+figure registry (nothing to close, no "too many figures" warning in loops) and no GUI backend,
+so they render on a machine without a display (saving uses Agg). In a notebook a returned
+figure shows as the cell's value; in a script save it with ``path=`` or ``fig.savefig``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from ._outputs import FRACTION_KEYS, Collision
+
+# One colour per energy store, shared by every figure (tab10, dissipation warm, recoverable cool).
+COLOURS = {
+    "beam_bending": "tab:red",
+    "beam_axial": "tab:orange",
+    "ring_bending": "tab:purple",
+    "ring_axial": "tab:pink",
+    "contact": "tab:brown",
+    "kinetic": "tab:blue",
+    "elastic": "tab:cyan",
+}
+LABELS = {
+    "beam_bending": "beam bending",
+    "beam_axial": "beam axial",
+    "ring_bending": "ring bending",
+    "ring_axial": "ring axial",
+    "contact": "contact",
+    "kinetic": "kinetic",
+    "elastic": "elastic",
+}
+_CHAIN_COLOURS = {"ring": "tab:blue", "beam": "tab:red"}
+
+
+def _save(fig: Figure, path: str | Path | None) -> Figure:
+    if path is not None:
+        fig.savefig(path, dpi=150)
+    return fig
+
+
+def _finished(collision: Collision) -> np.ndarray:
+    """Mask of history samples inside the run (t <= t_end; later samples are inf)."""
+    sol = collision.solution
+    ts = np.asarray(sol.ts)
+    return (ts <= float(sol.t_end) + 1e-12) & np.isfinite(np.asarray(sol.history["elastic"]))
+
+
+def energy_histories(collision: Collision) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """(tau, {key: E_key(tau)/K0}) for the seven `FRACTION_KEYS`, cut at the end of the run."""
+    sol, scene = collision.solution, collision.scene
+    keep = _finished(collision)
+    h = {k: np.asarray(v)[keep] for k, v in sol.history.items() if k != "contact_pairs"}
+    k0 = float(sol.k0)
+    zeros = np.zeros(int(keep.sum()))
+    out: dict[str, np.ndarray] = {}
+    for name in ("beam", "ring"):
+        i = scene.chain_index(name)
+        out[f"{name}_bending"] = zeros if i is None else h["bending"][:, i] / k0
+        out[f"{name}_axial"] = zeros if i is None else h["axial"][:, i] / k0
+    out["contact"] = h["contact"].sum(-1) / k0
+    out["kinetic"] = h["kinetic"].sum(-1) / k0
+    out["elastic"] = h["elastic"] / k0
+    return np.asarray(sol.ts)[keep], out
+
+
+def _plot_energies(ax, collision: Collision) -> None:
+    ts, energies = energy_histories(collision)
+    for key in FRACTION_KEYS:
+        if np.any(energies[key] != 0):
+            ax.plot(ts, energies[key], color=COLOURS[key], label=LABELS[key])
+    ax.set(xlabel=r"$\tau$", ylabel=r"$E / K_0$", title="(a) energy partition")
+    ax.set_xlim(0.0, ts[-1])
+    ax.set_ylim(bottom=0.0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="small", ncols=2)
+
+
+def _plot_shapes(ax, collision: Collision) -> None:
+    """Half-model shapes mirrored about x = 0, so the whole ring and beam are drawn."""
+    sol, scene = collision.solution, collision.scene
+    shape_ts = np.asarray(sol.shape_ts)
+    t_end = float(sol.t_end)
+    for chain, shapes, final in zip(scene.chains, sol.shapes, sol.final.x, strict=True):
+        colour = _CHAIN_COLOURS.get(chain.name, "k")
+        shapes = np.asarray(shapes)
+        for t, xy in zip(shape_ts[1:], shapes[1:], strict=True):
+            if t < t_end and np.all(np.isfinite(xy)):
+                _mirrored(ax, xy, color=colour, alpha=0.3, lw=0.9)
+        _mirrored(ax, shapes[0], color="0.5", ls="--", lw=1.0)
+        _mirrored(ax, np.asarray(final), color=colour, lw=1.8, label=chain.name)
+    ax.plot([], [], color="0.5", ls="--", label=r"$\tau = 0$")
+    ax.plot([], [], color="0.4", alpha=0.3, label="intermediate")
+    ax.set_aspect("equal")
+    ax.set(xlabel="x / R", ylabel="y / R", title=rf"(c) shapes (final at $\tau$ = {t_end:.3g})")
+    ax.legend(fontsize="small", loc="lower right")
+
+
+def _mirrored(ax, xy: np.ndarray, **kwargs) -> None:
+    full = np.concatenate([xy[::-1] * [-1.0, 1.0], xy[1:]])
+    ax.plot(full[:, 0], full[:, 1], **kwargs)
+
+
+def _plot_contact_force(ax, collision: Collision) -> None:
+    sol = collision.solution
+    keep = _finished(collision)
+    force = np.asarray(sol.history["contact_force"])[keep].sum(-1)
+    ts = np.asarray(sol.ts)[keep]
+    ax.plot(ts, force, color="k", lw=1.0)
+    ax.set_xlim(0.0, ts[-1])
+    ax.set_ylim(bottom=0.0)
+    ax.set(xlabel=r"$\tau$", ylabel=r"$P R / M_{pr}$ (half model)", title="(b) contact force")
+    ax.grid(alpha=0.3)
+
+
+def _plot_contact_pairs(fig: Figure, ax, collision: Collision) -> None:
+    """Ring node vs beam node of every active contact spring, coloured by time (Fig. 13e)."""
+    sol = collision.solution
+    keep = _finished(collision)
+    ts = np.asarray(sol.ts)[keep]
+    pairs = sol.history["contact_pairs"]
+    if not pairs:
+        ax.set_axis_off()
+        return
+    active = np.asarray(pairs[0])[keep]
+    step, ring, beam = np.nonzero(active)
+    # Later times are drawn on top, so the final contact zone stays visible.
+    points = ax.scatter(beam, ring, c=ts[step], s=14, cmap="viridis", vmin=0.0, vmax=ts[-1])
+    fig.colorbar(points, ax=ax, label=r"$\tau$")
+    ax.set_xlim(-0.5, active.shape[2] - 0.5)
+    ax.set_ylim(-0.5, active.shape[1] - 0.5)
+    ax.set(xlabel="beam node (from O)", ylabel="ring node (from S)", title="(d) contact pairs")
+    ax.grid(alpha=0.3)
+
+
+def plot_collision(collision: Collision, path: str | Path | None = None) -> Figure:
+    """Four panels of one collision, after the paper's Fig. 13.
+
+    (a) energy fractions E/K0 over tau, (b) total contact force, (c) initial, intermediate
+    (light) and final shapes, (d) active contact node pairs coloured by time.
+
+    **Arguments:**
+    - `collision`: the result of `msfd_jax.run`.
+    - `path`: if given, the figure is also saved there (format from the suffix).
+    """
+    fig = Figure(figsize=(12, 8.5), layout="constrained")
+    top, bottom = fig.subfigures(2, 1, height_ratios=(1.0, 0.75))
+    ax_energy, ax_force = top.subplots(1, 2)
+    # The shapes are drawn to scale (about 6R by 1.5R), so they get the wider bottom panel.
+    ax_shapes, ax_pairs = bottom.subplots(1, 2, width_ratios=(2.2, 1.0))
+    _plot_energies(ax_energy, collision)
+    _plot_contact_force(ax_force, collision)
+    _plot_shapes(ax_shapes, collision)
+    _plot_contact_pairs(bottom, ax_pairs, collision)
+    p = collision.params
+    fig.suptitle(
+        rf"$h_b/h_r$ = {float(p.thickness_ratio):g}, g = {float(p.mass_ratio):g}, "
+        rf"$v_0$ = {float(p.velocity):g}, "
+        f"{'axially constrained' if float(p.axial_constraint) else 'axially free'} beam"
+        f" — {collision.status}"
+    )
+    return _save(fig, path)
+
+
+Partition = Collision | Mapping[str, Any]
+
+
+def _partitions(partition: Partition | Sequence[Partition]) -> list[dict[str, float]]:
+    """Normalise to a list of {key: fraction}; a mapping of 1-D arrays gives one per entry."""
+    if isinstance(partition, Collision):
+        return [partition.fractions]
+    if isinstance(partition, Mapping):
+        arrays = {k: np.atleast_1d(np.asarray(partition[k], float)) for k in FRACTION_KEYS}
+        n = len(arrays[FRACTION_KEYS[0]])
+        return [{k: float(arrays[k][i]) for k in FRACTION_KEYS} for i in range(n)]
+    return [p for item in partition for p in _partitions(item)]
+
+
+def plot_partition(
+    partition: Partition | Sequence[Partition],
+    path: str | Path | None = None,
+    *,
+    labels: Sequence[str] | None = None,
+    title: str = "final energy partition",
+) -> Figure:
+    """Stacked bars of the final energy partition (fractions of K0), one bar per run.
+
+    **Arguments:**
+    - `partition`: a `Collision`, a mapping key -> fraction (as `Collision.fractions` or
+      `msfd_jax.fractions` of a vmapped solution, whose 1-D arrays give one bar per entry),
+      or a sequence of these.
+    - `path`: if given, the figure is also saved there.
+    - `labels`: one label per bar (e.g. the swept parameter's values).
+    """
+    rows = _partitions(partition)
+    labels = [str(i) for i in range(len(rows))] if labels is None else list(labels)
+    if len(labels) != len(rows):
+        raise ValueError(f"labels has {len(labels)} entries for {len(rows)} partitions")
+    fig = Figure(figsize=(7.5, 1.6 + 0.55 * len(rows)), layout="constrained")
+    ax = fig.subplots()
+    y = np.arange(len(rows))[::-1]
+    left = np.zeros(len(rows))
+    for key in FRACTION_KEYS:
+        width = np.array([r[key] for r in rows])
+        if not np.any(width > 0):
+            continue
+        ax.barh(y, width, left=left, color=COLOURS[key], label=LABELS[key], height=0.7)
+        for yi, li, wi in zip(y, left, width, strict=True):
+            if wi >= 0.04:
+                ax.text(li + wi / 2, yi, f"{100 * wi:.0f}%", ha="center", va="center", fontsize=8)
+        left = left + width
+    ax.set_yticks(y, labels)
+    ax.set_xlim(0.0, max(1.0, math.ceil(left.max() * 20) / 20))
+    ax.set(xlabel=r"fraction of $K_0$", title=title)
+    fig.legend(loc="outside lower center", ncols=4, fontsize="small")
+    return _save(fig, path)
