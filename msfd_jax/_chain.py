@@ -109,7 +109,7 @@ class Chain(eqx.Module):
         incoming, outgoing = [bars[:-1]], [bars[1:]]
         if self.start == "symmetric":
             # the mirror image of bar 0 in x = 0, traversed towards the symmetry node
-            incoming.insert(0, bars[:1] * jnp.array([1.0, -1.0]))
+            incoming.insert(0, bars[:1] * jnp.array([[1.0, -1.0]]))
             outgoing.insert(0, bars[:1])
         elif self.start == "clamped":
             initial = self.reference[1] - self.reference[0]

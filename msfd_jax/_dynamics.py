@@ -123,7 +123,7 @@ def respond(scene: Scene, xs, rotation_p, strain_p, permanent_set) -> Response:
         tuple(pair_forces),
         jnp.stack(bend),
         jnp.stack(axial),
-        jnp.stack(contact) if contact else jnp.zeros(0),
+        jnp.stack(contact) if contact else jnp.zeros(1),
         jnp.asarray(elastic),
     )
 

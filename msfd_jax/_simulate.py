@@ -8,6 +8,7 @@ capped at `t_max`. Guards: a non-finite state, or an energy balance error above
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import diffrax
@@ -112,21 +113,35 @@ class Solution(eqx.Module):
 def _history(t, y: State, args):
     scene = args[0]
     pair_force = tuple(jnp.sum(f) for f in y.contact_force)
-    return dict(
+    out = dict(
         kinetic=y.kinetic(scene),
         elastic=y.elastic,
         bending=y.bending,
         axial=y.axial,
         contact=y.contact,
-        contact_force=jnp.stack(pair_force) if pair_force else jnp.zeros(0),
+        contact_force=jnp.stack(pair_force) if pair_force else jnp.zeros(1),
         contact_pairs=tuple(f > 0 for f in y.contact_force),
         reaction=y.reaction,
         drive_work=y.drive_work,
     )
+    if not scene.contacts:
+        del out["contact_pairs"]  # diffrax's output buffers cannot hold empty tuples
+    return out
 
 
 def _shapes(t, y: State, args):
     return y.x
+
+
+def _final(t, y: State, args):
+    # diffrax's output buffers cannot hold empty tuples (a scene without contacts)
+    fields = ((f.name, getattr(y, f.name)) for f in dataclasses.fields(y))
+    return {name: v for name, v in fields if not (isinstance(v, tuple) and not v)}
+
+
+def _unpack_final(saved: dict) -> State:
+    last = jax.tree_util.tree_map(lambda a: a[-1], saved)
+    return State(**{f.name: last.get(f.name, ()) for f in dataclasses.fields(State)})
 
 
 def _energy_error(scene: Scene, y: State, k0):
@@ -174,7 +189,7 @@ def _simulate(scene: Scene, settings: Settings, max_steps: int, adjoint) -> Solu
         subs=[
             diffrax.SubSaveAt(ts=ts, fn=_history),
             diffrax.SubSaveAt(ts=shape_ts, fn=_shapes),
-            diffrax.SubSaveAt(t1=True),
+            diffrax.SubSaveAt(t1=True, fn=_final),
         ]
     )
     sol = diffrax.diffeqsolve(
@@ -193,7 +208,7 @@ def _simulate(scene: Scene, settings: Settings, max_steps: int, adjoint) -> Solu
         throw=False,
     )
     hist, shapes, last = sol.ys
-    final = jax.tree_util.tree_map(lambda a: a[-1], last)
+    final = _unpack_final(last)
     t_end = sol.ts[2][-1]
     err = _energy_error(scene, final, k0)
     code = jnp.where(
