@@ -1,0 +1,25 @@
+"""Test set-up: float64, no silent rank promotion, and compiled scenes shared across tests."""
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+jax.config.update("jax_numpy_rank_promotion", "raise")
+
+import pytest  # noqa: E402
+
+import msfd_jax as m  # noqa: E402
+
+# One small mesh for every test that does not need the paper's: compiled once, reused.
+SMALL_MESH = m.Mesh(ring_segments=6, beam_contact_segments=8, beam_outer_segments=2)
+SHORT = m.Settings(t_max=1.5, history_points=31, shape_times=(0.5,))
+
+
+@pytest.fixture(scope="session")
+def small_mesh():
+    return SMALL_MESH
+
+
+@pytest.fixture(scope="session")
+def showcase():
+    """The paper's showcase (Fig. 13) on the paper's mesh, run once for the whole session."""
+    return m.run()

@@ -1,0 +1,54 @@
+"""Every notebooks/*.py (jupytext percent format) executes as a notebook without a cell error.
+
+The kernel is this interpreter's: a throwaway ``python3`` kernelspec pointing at
+``sys.executable`` is put first on ``JUPYTER_PATH``, so a user's own ``python3`` kernel (maybe
+another Python without msfd_jax) is not picked up.
+"""
+
+import json
+import sys
+from pathlib import Path
+
+import jupytext
+import nbclient
+import pytest
+
+NOTEBOOKS = sorted((Path(__file__).resolve().parent.parent / "notebooks").glob("*.py"))
+
+
+@pytest.fixture(scope="session")
+def kernel_name(tmp_path_factory):
+    root = tmp_path_factory.mktemp("jupyter")
+    spec = root / "kernels" / "python3"
+    spec.mkdir(parents=True)
+    argv = [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"]
+    kernel = {"argv": argv, "display_name": "Python 3 (msfd tests)", "language": "python"}
+    (spec / "kernel.json").write_text(json.dumps(kernel))
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("JUPYTER_PATH", str(root))
+        patch.setenv("MPLBACKEND", "Agg")
+        yield "python3"
+
+
+def test_there_are_notebooks():
+    assert NOTEBOOKS, "no notebooks/*.py found"
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
+def test_notebook_runs(path, kernel_name, tmp_path):
+    notebook = jupytext.read(path)
+    client = nbclient.NotebookClient(
+        notebook,
+        kernel_name=kernel_name,
+        timeout=600,
+        resources={"metadata": {"path": str(tmp_path)}},
+    )
+    client.execute()  # raises CellExecutionError naming the failing cell
+    errors = [
+        output
+        for cell in notebook.cells
+        if cell.cell_type == "code"
+        for output in cell.get("outputs", [])
+        if output.get("output_type") == "error"
+    ]
+    assert not errors
