@@ -258,5 +258,5 @@ def test_cantilever_converges_to_parkes_as_elasticity_vanishes():
         _permanent_tip_deflection(1.0, 0.724, beta) / exact - 1 for beta in (1.0e3, 1.0e4, 1.0e5)
     ]
     assert all(e > 0 for e in errors)
-    assert errors[0] > errors[1] + 0.015 > errors[2] + 0.03
+    assert errors[0] - errors[1] > 0.015 and errors[1] - errors[2] > 0.015  # measured 2.8, 3.4 %
     assert errors[2] < 0.08
