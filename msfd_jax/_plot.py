@@ -3,11 +3,14 @@
 Figures are built on `matplotlib.figure.Figure` directly, not through `pyplot`: no global
 figure registry (nothing to close, no "too many figures" warning in loops) and no GUI backend,
 so they render on a machine without a display (saving uses Agg). In a notebook a returned
-figure shows as the cell's value; in a script save it with ``path=`` or ``fig.savefig``.
+figure shows as the cell's value (`_repr_png_`, IPython's display protocol, since such a figure
+is not known to pyplot's inline backend); in a script save it with ``path=`` or
+``fig.savefig``.
 """
 
 from __future__ import annotations
 
+import io
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -38,6 +41,15 @@ LABELS = {
     "elastic": "elastic",
 }
 _CHAIN_COLOURS = {"ring": "tab:blue", "beam": "tab:red"}
+
+
+class _Figure(Figure):
+    """A figure that shows itself in Jupyter without pyplot."""
+
+    def _repr_png_(self) -> bytes:
+        buffer = io.BytesIO()
+        self.savefig(buffer, format="png", dpi=100)
+        return buffer.getvalue()
 
 
 def _save(fig: Figure, path: str | Path | None) -> Figure:
@@ -150,7 +162,7 @@ def plot_collision(collision: Collision, path: str | Path | None = None) -> Figu
     - `collision`: the result of `msfd_jax.run`.
     - `path`: if given, the figure is also saved there (format from the suffix).
     """
-    fig = Figure(figsize=(12, 8.5), layout="constrained")
+    fig = _Figure(figsize=(12, 8.5), layout="constrained")
     top, bottom = fig.subfigures(2, 1, height_ratios=(1.0, 0.75))
     ax_energy, ax_force = top.subplots(1, 2)
     # The shapes are drawn to scale (about 6R by 1.5R), so they get the wider bottom panel.
@@ -203,7 +215,7 @@ def plot_partition(
     labels = [str(i) for i in range(len(rows))] if labels is None else list(labels)
     if len(labels) != len(rows):
         raise ValueError(f"labels has {len(labels)} entries for {len(rows)} partitions")
-    fig = Figure(figsize=(7.5, 1.6 + 0.55 * len(rows)), layout="constrained")
+    fig = _Figure(figsize=(7.5, 1.6 + 0.55 * len(rows)), layout="constrained")
     ax = fig.subplots()
     y = np.arange(len(rows))[::-1]
     left = np.zeros(len(rows))

@@ -52,3 +52,12 @@ def test_notebook_runs(path, kernel_name, tmp_path):
         if output.get("output_type") == "error"
     ]
     assert not errors
+    # Figures from msfd_jax._plot display without pyplot (their _repr_png_).
+    shown = [
+        output
+        for cell in notebook.cells
+        if cell.cell_type == "code"
+        for output in cell.get("outputs", [])
+        if "image/png" in output.get("data", {})
+    ]
+    assert shown or "plot_" not in path.read_text()
