@@ -259,11 +259,15 @@ def cantilever_tip_mass(
     from ._params import _check_count
 
     _check_count("segments", segments, 2)
+    mass_ratio, velocity, modulus_ratio, slenderness = (
+        jnp.asarray(v, dtype=jnp.float64)
+        for v in (mass_ratio, velocity, modulus_ratio, slenderness)
+    )
     xs = jnp.linspace(0.0, 1.0, segments + 1)
     xy = jnp.stack([xs, jnp.zeros_like(xs)], axis=-1)
     section = rectangular_section(1.0, 1.0, modulus_ratio, slenderness)
     mass = lumped_masses(xy, section.mass_per_length).at[-1].add(mass_ratio)
     free = jnp.ones_like(xy).at[0].set(0.0)
-    beam = Chain("beam", "clamped", "free", xy, mass, free, section, jnp.asarray(mass_ratio, float))
+    beam = Chain("beam", "clamped", "free", xy, mass, free, section, mass_ratio)
     v = jnp.zeros_like(xy).at[-1, 1].set(velocity)
     return Scene((beam,), (), (v,), None, _smoothing(yield_smoothing, "yield_smoothing"))

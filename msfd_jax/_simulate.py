@@ -263,4 +263,8 @@ def simulate(
       reverse mode) or ``ForwardMode`` (for ``jax.jvp``, cheapest for few design variables).
     """
     adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
+    # numbers as arrays, so that a new t_max or dt does not compile a new program
+    settings = jax.tree_util.tree_map(
+        lambda v: jnp.asarray(v, float) if isinstance(v, float | int) else v, settings
+    )
     return _simulate(scene, settings, max_steps_for(scene, settings), adjoint)
