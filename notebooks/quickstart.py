@@ -17,7 +17,8 @@
 # # msfd-jax quick start
 #
 # A ring (radius R, thickness h_r) carrying a rigid block flies at V0 onto a simply supported
-# beam (thickness h_b): Ruan & Yu (2003), *Int. J. Impact Eng.* 28, the MS-FD model. This
+# beam (thickness h_b), modelled with the mass-spring finite-difference (MS-FD) model of Ruan &
+# Yu, "Collision between a ring and a beam", *Int. J. Mech. Sci.* 45 (2003) 1751-1780. This
 # notebook runs the paper's showcase (Fig. 13: h_b/h_r = 2.5, axially constrained beam,
 # g = 10, v0 = 0.82) on a coarse mesh, looks at its energy histories and shapes, and then
 # sweeps the thickness ratio with `jax.vmap`. Everything is non-dimensional (Eq. 1): energies
