@@ -143,8 +143,10 @@ def _plot_contact_pairs(fig: Figure, ax, collision: Collision) -> None:
         return
     active = np.asarray(pairs[0])[keep]
     step, ring, beam = np.nonzero(active)
-    # Later times are drawn on top, so the final contact zone stays visible.
-    points = ax.scatter(beam, ring, c=ts[step], s=14, cmap="viridis", vmin=0.0, vmax=ts[-1])
+    # Later times are drawn on top, so the final contact zone stays visible; the colour scale
+    # ends at the last contact, not at t_end (contact usually ends well before dissipation).
+    last = ts[step].max() if step.size else ts[-1]
+    points = ax.scatter(beam, ring, c=ts[step], s=14, cmap="viridis", vmin=0.0, vmax=last)
     fig.colorbar(points, ax=ax, label=r"$\tau$")
     ax.set_xlim(-0.5, active.shape[2] - 0.5)
     ax.set_ylim(-0.5, active.shape[1] - 0.5)
