@@ -113,8 +113,8 @@ def test_bad_input_exits_2_naming_the_parameter(capsys, args, name):
 
 
 def test_failed_solve_exits_3(capsys, monkeypatch):
-    # A real blow-up (e.g. --safety 4) would recompile: Settings floats are static under
-    # filter_jit. The CLI's handling of a failed solve is what is tested here.
+    # The CLI's handling of a failed solve is what is tested here (a real blow-up, e.g.
+    # --safety 4, changes the static step bound and would compile a second program).
     def fail(*args, **kwargs):
         raise m.SimulationError("the solve became non-finite at tau = 0.01; remedy: --safety")
 
