@@ -66,3 +66,12 @@ __all__ = [
     "simulate",
     "validate",
 ]
+
+
+def __getattr__(name):
+    # plotting is imported lazily: `import msfd_jax` does not load matplotlib
+    if name in ("plot_collision", "plot_partition"):
+        from . import _plot
+
+        return getattr(_plot, name)
+    raise AttributeError(f"module 'msfd_jax' has no attribute {name!r}")

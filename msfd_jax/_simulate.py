@@ -62,10 +62,8 @@ class Settings(eqx.Module):
         if self.dt is not None and not isinstance(self.dt, jax.core.Tracer):
             if not (math.isfinite(self.dt) and self.dt > 0):
                 raise ValueError(f"dt must be a positive finite number, got {self.dt!r}")
-        if any(not (0.0 <= t <= self.t_max) for t in self.shape_times):
-            raise ValueError(
-                f"shape_times must lie in [0, t_max={self.t_max}], got {self.shape_times}"
-            )
+        if any(not (math.isfinite(t) and t >= 0.0) for t in self.shape_times):
+            raise ValueError(f"shape_times must be finite and >= 0, got {self.shape_times}")
         if self.history_points < 2:
             raise ValueError(f"history_points must be >= 2, got {self.history_points}")
 
@@ -263,6 +261,10 @@ def simulate(
       reverse mode) or ``ForwardMode`` (for ``jax.jvp``, cheapest for few design variables).
     """
     adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
+    if not isinstance(settings.t_max, jax.core.Tracer):
+        # shape times past the cap are dropped (a short run keeps the default times it reaches)
+        kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
+        settings = dataclasses.replace(settings, shape_times=kept)
     # numbers as arrays, so that a new t_max or dt does not compile a new program
     settings = jax.tree_util.tree_map(
         lambda v: jnp.asarray(v, float) if isinstance(v, float | int) else v, settings

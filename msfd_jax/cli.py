@@ -169,9 +169,10 @@ def enable_compilation_cache() -> Path:
     import equinox._errors
     import jax
 
-    if "EQX_ON_ERROR" not in os.environ:
+    if "EQX_ON_ERROR" not in os.environ and hasattr(equinox._errors, "EQX_ON_ERROR"):
         # Read by equinox at import, before this module runs; its module-level default is
-        # what `error_if` consults at trace time.
+        # what `error_if` consults at trace time. (Private: guarded, so a future equinox
+        # without it only loses the cache, never breaks the CLI.)
         equinox._errors.EQX_ON_ERROR = "nan"
     default = Path.home() / ".cache" / "msfd-jax" / "jax"
     path = Path(os.environ.get("MSFD_CACHE_DIR") or default).expanduser()
