@@ -218,7 +218,7 @@ def simulate_arrays(
     xr, vr, mr, free_r, cr, pr,
     xb, vb, mb, free_b, cb, pb,
     contact_c,
-    dt0, t_max, n_grid, max_steps,
+    dt0, t_max, n_grid, max_steps, substeps,
     t_min, settle_window, settle_tolerance, energy_guard,
 ):  # fmt: skip
     """Integrate until settled. Arrays xr, vr, xb, vb are copied, not modified.
@@ -272,45 +272,52 @@ def simulate_arrays(
     kin_b = 0.0
     while steps < max_steps:
         steps += 1
-        t_next = dt0 if steps == 1 else t_max * (steps / n_grid)
+        t_macro = dt0 if steps == 1 else t_max * (steps / n_grid)
         if steps == n_grid:
-            t_next = t_max
-        h = t_next - t
-        half = 0.5 * h
-        for i in range(n_r):
-            for d in range(2):
-                vr[i, d] = vr[i, d] + half * ar[i, d]
-                xr[i, d] = xr[i, d] + h * vr[i, d]
-        for i in range(n_bn):
-            for d in range(2):
-                vb[i, d] = vb[i, d] + half * ab[i, d]
-                xb[i, d] = xb[i, d] + h * vb[i, d]
-        _respond(xr, xb, fr, fb, cr, pr, cb, pb, rot_r, str_r, rot_b, str_b, contact_c, pset, out)
-        kin_r = 0.0
-        kin_b = 0.0
-        for i in range(n_r):
-            for d in range(2):
-                ar[i, d] = fr[i, d] / mr[i] * free_r[i, d]
-                vr[i, d] = vr[i, d] + half * ar[i, d]
-                kin_r += mr[i] * vr[i, d] ** 2
-        for i in range(n_bn):
-            for d in range(2):
-                ab[i, d] = fb[i, d] / mb[i] * free_b[i, d]
-                vb[i, d] = vb[i, d] + half * ab[i, d]
-                kin_b += mb[i] * vb[i, d] ** 2
-        kin_r *= 0.5
-        kin_b *= 0.5
-        bend_r += out[0]
-        bend_b += out[1]
-        ax_r += out[2]
-        ax_b += out[3]
-        contact += out[4]
-        elastic = out[5]
-        t = t_next
-        total = (bend_r + bend_b) + (ax_r + ax_b) + contact
-        if total - mark > tolerance:
-            last = t
-            mark = total
+            t_macro = t_max
+        # msfd_jax makes `substeps` equal Verlet steps inside each diffrax step
+        t_start = t
+        h = (t_macro - t_start) / substeps
+        for sub in range(substeps):
+            t_next = t_start + (sub + 1) * h
+            half = 0.5 * h
+            for i in range(n_r):
+                for d in range(2):
+                    vr[i, d] = vr[i, d] + half * ar[i, d]
+                    xr[i, d] = xr[i, d] + h * vr[i, d]
+            for i in range(n_bn):
+                for d in range(2):
+                    vb[i, d] = vb[i, d] + half * ab[i, d]
+                    xb[i, d] = xb[i, d] + h * vb[i, d]
+            _respond(
+                xr, xb, fr, fb, cr, pr, cb, pb, rot_r, str_r, rot_b, str_b, contact_c, pset, out
+            )
+            kin_r = 0.0
+            kin_b = 0.0
+            for i in range(n_r):
+                for d in range(2):
+                    ar[i, d] = fr[i, d] / mr[i] * free_r[i, d]
+                    vr[i, d] = vr[i, d] + half * ar[i, d]
+                    kin_r += mr[i] * vr[i, d] ** 2
+            for i in range(n_bn):
+                for d in range(2):
+                    ab[i, d] = fb[i, d] / mb[i] * free_b[i, d]
+                    vb[i, d] = vb[i, d] + half * ab[i, d]
+                    kin_b += mb[i] * vb[i, d] ** 2
+            kin_r *= 0.5
+            kin_b *= 0.5
+            bend_r += out[0]
+            bend_b += out[1]
+            ax_r += out[2]
+            ax_b += out[3]
+            contact += out[4]
+            elastic = out[5]
+            t = t_next
+            total = (bend_r + bend_b) + (ax_r + ax_b) + contact
+            if total - mark > tolerance:
+                last = t
+                mark = total
+        t = t_macro
         err = ((kin_r + kin_b) + elastic + total - k0) / (k0 if k0 > 0 else 1.0)
         if not math.isfinite(err):
             code = 2
@@ -396,7 +403,9 @@ class Reference:
         self.dt_critical = float(dt_crit)
         self.t_max = float(settings.t_max)
         # diffrax's ConstantStepSize grid (diffrax/_step_size_controller/constant.py)
-        self.n_grid = int(np.ceil(self.t_max / np.nextafter(self.dt, np.inf)))
+        self.substeps = int(settings.substeps)
+        self.dt_macro = self.dt * self.substeps
+        self.n_grid = int(np.ceil(self.t_max / np.nextafter(self.dt_macro, np.inf)))
         self.max_steps = int(sim.max_steps_for(scene, settings))
         self.rule = tuple(
             float(v)
@@ -424,10 +433,11 @@ class Reference:
             self.cb,
             self.pb,
             self.contact,
-            self.dt,
+            self.dt_macro,
             self.t_max,
             self.n_grid,
             self.max_steps if max_steps is None else max_steps,
+            self.substeps,
             *self.rule,
         )
         k0 = e[8]
@@ -441,7 +451,11 @@ class Reference:
             elastic=e[5] / k0,
         )
         return dict(
-            steps=int(steps), t_end=float(t_end), code=int(code), k0=k0, fractions=fractions
+            steps=int(steps) * self.substeps,
+            t_end=float(t_end),
+            code=int(code),
+            k0=k0,
+            fractions=fractions,
         )
 
     def compile(self):

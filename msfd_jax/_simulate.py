@@ -39,7 +39,9 @@ class Settings(eqx.Module):
     - `history_points`: samples of the energy/contact histories over [0, t_max].
     - `shape_times`: times at which node positions are saved.
     - `energy_guard`: stop when |energy balance error| exceeds this fraction of K0.
-    - `max_steps`: static bound on the number of steps (None: from t_max / dt).
+    - `max_steps`: static bound on the number of diffrax steps (None: from t_max / dt).
+    - `substeps`: Verlet steps per diffrax step (histories are interpolated linearly between
+      diffrax steps, and the stopping rule is checked once per diffrax step).
     """
 
     safety: float = 0.5
@@ -53,6 +55,7 @@ class Settings(eqx.Module):
     shape_times: tuple[float, ...] = eqx.field(static=True, default=(0.15, 0.49, 0.75, 1.5))
     energy_guard: float = 0.05
     max_steps: int | None = eqx.field(static=True, default=None)
+    substeps: int = eqx.field(static=True, default=8)
 
     def __check_init__(self):
         for name in ("safety", "t_max", "settle_window", "energy_guard"):
@@ -64,6 +67,8 @@ class Settings(eqx.Module):
                 raise ValueError(f"dt must be a positive finite number, got {self.dt!r}")
         if any(not (math.isfinite(t) and t >= 0.0) for t in self.shape_times):
             raise ValueError(f"shape_times must be finite and >= 0, got {self.shape_times}")
+        if not isinstance(self.substeps, int) or self.substeps < 1:
+            raise ValueError(f"substeps must be an integer >= 1, got {self.substeps!r}")
         if self.history_points < 2:
             raise ValueError(f"history_points must be >= 2, got {self.history_points}")
 
@@ -160,7 +165,7 @@ def max_steps_for(scene: Scene, settings: Settings) -> int:
         return settings.max_steps
     dt, _ = step_size(scene, settings)
     try:
-        n = float(jnp.max(settings.t_max / dt))
+        n = float(jnp.max(settings.t_max / (dt * settings.substeps)))
     except jax.errors.ConcretizationTypeError:
         raise ValueError("under jit/vmap give Settings(max_steps=...) explicitly") from None
     return 2 ** max(8, math.ceil(math.log2(1.02 * n + 16)))
@@ -192,10 +197,10 @@ def _simulate(scene: Scene, settings: Settings, max_steps: int, adjoint) -> Solu
     )
     sol = diffrax.diffeqsolve(
         diffrax.ODETerm(rate_form),
-        VelocityVerlet(),
+        VelocityVerlet(settings.substeps),
         t0=0.0,
         t1=settings.t_max,
-        dt0=dt,
+        dt0=dt * settings.substeps,
         y0=y0,
         args=(scene, tolerance),
         saveat=saveat,
@@ -230,7 +235,7 @@ def _simulate(scene: Scene, settings: Settings, max_steps: int, adjoint) -> Solu
     return Solution(
         result=code,
         t_end=t_end,
-        steps=sol.stats["num_steps"],
+        steps=sol.stats["num_steps"] * settings.substeps,
         dt=dt,
         dt_critical=dt_crit,
         k0=k0,

@@ -28,13 +28,17 @@ class VelocityVerlet(diffrax.AbstractSolver):
     """Explicit central-difference (velocity-Verlet) step with return mapping (Sect. 3).
 
     Second order and symplectic while the response is elastic; stable for dt < 2/omega_max.
-    ``args`` must be ``(scene, settle_tolerance)``.
+    ``args`` must be ``(scene, settle_tolerance)``. Each diffrax step of length H makes
+    ``substeps`` Verlet steps of H/substeps: diffrax's per-step bookkeeping (saving, events)
+    is then paid once per ``substeps`` steps (benchmarks/results/profile.md).
     """
 
     term_structure: ClassVar = diffrax.AbstractTerm
     interpolation_cls: ClassVar[Callable[..., diffrax.LocalLinearInterpolation]] = (
         diffrax.LocalLinearInterpolation
     )
+
+    substeps: int = eqx.field(static=True, default=1)
 
     def order(self, terms):
         return 2
@@ -45,7 +49,15 @@ class VelocityVerlet(diffrax.AbstractSolver):
     def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
         del solver_state, made_jump, terms
         scene, settle_tolerance = args
-        y1 = verlet_step(scene, y0, t1, t1 - t0, settle_tolerance)
+        h = (t1 - t0) / self.substeps
+
+        def substep(i, y):
+            return verlet_step(scene, y, t0 + (i + 1) * h, h, settle_tolerance)
+
+        if self.substeps == 1:
+            y1 = substep(0, y0)
+        else:
+            y1 = jax.lax.fori_loop(0, self.substeps, substep, y0)
         return y1, None, dict(y0=y0, y1=y1), None, diffrax.RESULTS.successful
 
     def func(self, terms, t0, y0, args):
