@@ -1,0 +1,416 @@
+"""Sweeps: many ring-on-beam collisions batched with `jax.vmap` under one compiled program.
+
+A sweep is a grid (a dict of value lists: their Cartesian product) or a list of collisions
+(a list of dicts). Every value is validated before anything is traced; the collisions are then
+run in chunks of `chunk_size` by one jit-compiled ``vmap`` of `simulate` (the last chunk is
+padded to the chunk size so that it reuses the program, and the padding is dropped), so memory
+stays bounded by one chunk. The result is a tidy `SweepTable`: one row per collision with its
+inputs and every output of ``msfd run --json``; a failed run is a row with its status and
+`diagnose`'s message, never a silent NaN.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import itertools
+import math
+import sys
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._dynamics import critical_step
+from ._outputs import FRACTION_KEYS, diagnose, fractions
+from ._params import CollisionParams, Mesh, validate
+from ._scene import ring_on_beam
+from ._simulate import ENERGY_BALANCE, MAX_STEPS, NON_FINITE, RESULT_NAMES, Settings, simulate
+
+INPUTS = tuple(f.name for f in dataclasses.fields(CollisionParams))
+KINETIC_KEYS = ("kinetic_ring", "kinetic_block", "kinetic_beam")
+OUTPUTS = (
+    *FRACTION_KEYS,
+    *KINETIC_KEYS,
+    "energy_balance_error",
+    "t_end",
+    "steps",
+    "dt",
+    "dt_critical",
+    "k0",
+    "result",
+    "status",
+    "message",
+    "wall_time_s",
+)
+# Histories are (history_points, ...) per collision: a sweep keeps only the final partition,
+# so by default it saves two history samples and no shapes (the outputs do not depend on them).
+SWEEP_SETTINGS = Settings(history_points=2, shape_times=())
+DEFAULT_CHUNK = 64
+_FAILED = (NON_FINITE, ENERGY_BALANCE, MAX_STEPS)
+
+
+@dataclasses.dataclass
+class SweepTable:
+    """One row per collision: every input (`INPUTS`) and every output (`OUTPUTS`) as columns.
+
+    `columns` maps a name to a numpy array (float64; ``steps`` and ``result`` int64; ``status``
+    and ``message`` str). `grid` holds the axes when the sweep was a full grid (rows in C
+    order: the last axis varies fastest), else None. `wall_time_s` is the whole sweep's.
+    """
+
+    columns: dict[str, np.ndarray]
+    grid: dict[str, np.ndarray] | None = None
+    wall_time_s: float = float("nan")
+
+    def __len__(self) -> int:
+        return len(next(iter(self.columns.values())))
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.columns[name]
+
+    def keys(self):
+        return self.columns.keys()
+
+    @property
+    def failed(self) -> np.ndarray:
+        """Rows that went non-finite, broke their energy balance or ran out of steps."""
+        return np.isin(self.columns["result"], _FAILED)
+
+    def rows(self) -> list[dict[str, Any]]:
+        """The table as a list of flat dicts of Python scalars (JSON-ready)."""
+        names = list(self.columns)
+        return [{k: self.columns[k][i].item() for k in names} for i in range(len(self))]
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write a CSV with a header row; floats are written exactly (``repr``)."""
+        path = Path(path)
+        with path.open("w", newline="") as stream:
+            writer = csv.writer(stream)
+            writer.writerow(self.columns)
+            for row in self.rows():
+                writer.writerow(repr(v) if isinstance(v, float) else v for v in row.values())
+        return path
+
+    @classmethod
+    def read_csv(cls, path: str | Path) -> SweepTable:
+        """Read a CSV written by `to_csv` (column types as `SweepTable` documents them)."""
+        with Path(path).open(newline="") as stream:
+            reader = csv.reader(stream)
+            header = next(reader)
+            data = list(zip(*reader, strict=True)) or [() for _ in header]
+        return cls({k: _column(k, v) for k, v in zip(header, data, strict=True)})
+
+    def to_xarray(self):
+        """An ``xarray.Dataset`` on the grid axes (needs the optional extra ``sweep``)."""
+        if self.grid is None:
+            raise ValueError("only a full grid (a dict of value lists) maps onto an xarray grid")
+        import xarray as xr
+
+        shape = tuple(len(v) for v in self.grid.values())
+        dims = tuple(self.grid)
+        data = {k: (dims, v.reshape(shape)) for k, v in self.columns.items() if k not in self.grid}
+        return xr.Dataset(data, coords={k: list(v) for k, v in self.grid.items()})
+
+    def to_netcdf(self, path: str | Path) -> Path:
+        """Write the grid as NetCDF via xarray (engine h5netcdf if installed)."""
+        path = Path(path)
+        self.to_xarray().to_netcdf(path)
+        return path
+
+
+def _column(name: str, values: Sequence[str]) -> np.ndarray:
+    if name in ("status", "message"):
+        return np.asarray(values, dtype=str)
+    if name in ("steps", "result"):
+        return np.asarray([int(v) for v in values], dtype=np.int64)
+    return np.asarray([float(v) for v in values], dtype=np.float64)
+
+
+def collisions(
+    grid_or_list: Mapping[str, Any] | Sequence[Mapping[str, Any]],
+    base: CollisionParams = CollisionParams(),
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray] | None]:
+    """Expand a sweep into input columns (one float64 array per `INPUTS` name) and grid axes.
+
+    A dict of value lists is a full grid (Cartesian product, last key fastest); a list of
+    dicts is a list of collisions. Inputs not given take their value from `base`. Booleans
+    (``axial_constraint``) become 1.0 / 0.0. Values are not range-checked here (`sweep` does).
+    """
+    if isinstance(grid_or_list, Mapping):
+        _check_names(grid_or_list)
+        axes = {k: _values(k, v) for k, v in grid_or_list.items()}
+        points = list(itertools.product(*axes.values()))
+        given = {k: [p[i] for p in points] for i, k in enumerate(axes)}
+        n, grid = len(points), axes
+    else:
+        rows = list(grid_or_list)
+        for row in rows:
+            if not isinstance(row, Mapping):
+                raise TypeError(f"a sweep list holds dicts of inputs, got {row!r}")
+            _check_names(row)
+        names = {k for row in rows for k in row}
+        given = {k: [row.get(k, _base(base, k)) for row in rows] for k in names}
+        n, grid = len(rows), None
+    if n == 0:
+        raise ValueError("a sweep needs at least one collision")
+    columns = {k: np.full(n, _base(base, k)) for k in INPUTS}
+    for k, v in given.items():
+        columns[k] = np.asarray([_number(k, x) for x in v], dtype=np.float64)
+    return columns, grid
+
+
+def _check_names(mapping: Mapping[str, Any]) -> None:
+    unknown = sorted(set(mapping) - set(INPUTS))
+    if unknown:
+        raise ValueError(f"unknown sweep inputs {unknown}; allowed: {', '.join(INPUTS)}")
+
+
+def _values(name: str, values: Any) -> np.ndarray:
+    out = np.asarray([_number(name, v) for v in np.atleast_1d(np.asarray(values, dtype=object))])
+    if out.size == 0:
+        raise ValueError(f"{name}: a grid axis needs at least one value")
+    return out.astype(np.float64)
+
+
+def _number(name: str, value: Any) -> float:
+    if isinstance(value, bool | np.bool_):
+        return 1.0 if value else 0.0
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be a real number, got {value!r}") from None
+
+
+def _base(base: CollisionParams, name: str) -> float:
+    return _number(name, np.asarray(getattr(base, name)).item())
+
+
+def sweep(
+    grid_or_list: Mapping[str, Any] | Sequence[Mapping[str, Any]],
+    mesh: Mesh = Mesh(),
+    settings: Settings = SWEEP_SETTINGS,
+    chunk_size: int = DEFAULT_CHUNK,
+    progress: bool = True,
+    *,
+    base: CollisionParams = CollisionParams(),
+    contact_smoothing: float = 0.0,
+    yield_smoothing: float = 0.0,
+    shard: bool = False,
+) -> SweepTable:
+    """Run a grid or list of collisions, `chunk_size` at a time under one compiled vmap.
+
+    **Arguments:**
+    - `grid_or_list`: ``{"thickness_ratio": [1, 2.5], "axial_constraint": [0, 1]}`` (a full
+      grid) or ``[{"thickness_ratio": 1.0}, {"mass_ratio": 5.0}, ...]`` (a list); the keys are
+      `INPUTS` (the fields of `CollisionParams`), anything not given is taken from `base`.
+    - `mesh`, `settings`: as for `run`. The default settings keep two history samples and no
+      shapes (a sweep keeps only final values). `Settings.max_steps`, when None, is the bound
+      `simulate` would take for the smallest step of the sweep: every collision's computed
+      stability limit is evaluated first (a small vmapped program), so that one bound, and so
+      one compiled program, serves all chunks.
+    - `chunk_size`: collisions per compiled call (memory is one chunk's). Under vmap a chunk
+      runs until its slowest collision has stopped.
+    - `progress`: a progress bar on stderr.
+    - `shard`: split each chunk across all JAX devices with `jax.shard_map` (each device runs
+      its own stopping loop); `chunk_size` must then be a multiple of the device count.
+
+    Raises ValueError/TypeError, before anything is compiled, for a bad value.
+    """
+    columns, grid = collisions(grid_or_list, base)
+    # CollisionParams validates arrays elementwise; `validate` adds what needs the mesh.
+    params = CollisionParams(**columns)
+    validate(params, mesh)
+    smoothing = _smoothing_arrays(contact_smoothing, yield_smoothing)
+    chunk_size, devices = _chunking(chunk_size, shard)
+    settings = _sweep_settings(settings)
+    n = len(columns["thickness_ratio"])
+    chunks = [range(s, min(s + chunk_size, n)) for s in range(0, n, chunk_size)]
+    bar = _Progress(n, enabled=progress)
+    start = time.perf_counter()
+    if settings.max_steps is None:
+        bar.note("stability limits")
+        dt_crit = np.concatenate(
+            [_run_chunk(_critical_chunk, columns, c, chunk_size, mesh, smoothing) for c in chunks]
+        )
+        settings = dataclasses.replace(settings, max_steps=step_bound(dt_crit, settings))
+    bar.note("collisions")
+    solve = _sharded_solver(devices) if devices else _solve_chunk
+    parts = []
+    for c in chunks:
+        tick = time.perf_counter()
+        outputs, solution = _run_chunk(solve, columns, c, chunk_size, mesh, smoothing, settings)
+        parts.append(_rows(outputs, solution, mesh, time.perf_counter() - tick))
+        bar.update(len(c))
+    bar.close()
+    out = {k: np.concatenate([p[k] for p in parts]) for k in OUTPUTS}
+    return SweepTable({**columns, **out}, grid, time.perf_counter() - start)
+
+
+def step_bound(dt_critical: np.ndarray, settings: Settings) -> int:
+    """`max_steps` for the smallest step of a sweep, rounded as `simulate` rounds it.
+
+    t_max / (dt x substeps) diffrax steps, dt = safety x dt_crit (or `Settings.dt`), with 2 %
+    and 16 steps of margin, rounded up to a power of two (>= 256) so that sweeps of similar
+    designs share one compiled program (the same rule as ``_simulate.max_steps_for``).
+    """
+    dt = np.asarray(dt_critical) * float(settings.safety) if settings.dt is None else settings.dt
+    steps = float(np.max(float(settings.t_max) / (np.asarray(dt) * settings.substeps)))
+    if not math.isfinite(steps):
+        raise ValueError(f"the stability limit of a collision is not finite: {dt_critical}")
+    return 2 ** max(8, math.ceil(math.log2(1.02 * steps + 16)))
+
+
+def _sweep_settings(settings: Settings) -> Settings:
+    # shape times past the cap dropped as `simulate` does (it cannot under jit); numbers as
+    # arrays so that filter_jit traces them (a new t_max or safety compiles nothing new)
+    kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
+    settings = dataclasses.replace(settings, shape_times=kept)
+    return jax.tree_util.tree_map(
+        lambda v: jnp.asarray(v, float) if isinstance(v, float | int) else v, settings
+    )
+
+
+def _smoothing_arrays(contact_smoothing, yield_smoothing):
+    # the same checks `ring_on_beam` makes, done here on the concrete values
+    for name, value in (
+        ("contact_smoothing", contact_smoothing),
+        ("yield_smoothing", yield_smoothing),
+    ):
+        if not 0.0 <= float(value) <= 1.0e3:
+            raise ValueError(f"{name} = {float(value):g} is out of range; allowed [0, 1000]")
+    return jnp.asarray(contact_smoothing, float), jnp.asarray(yield_smoothing, float)
+
+
+def _chunking(chunk_size: int, shard: bool):
+    if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
+        raise ValueError(f"chunk_size must be an integer >= 1, got {chunk_size!r}")
+    if not shard:
+        return chunk_size, None
+    devices = jax.devices()
+    if chunk_size % len(devices):
+        raise ValueError(
+            f"chunk_size = {chunk_size} must be a multiple of the {len(devices)} devices"
+        )
+    return chunk_size, devices
+
+
+def _run_chunk(function, columns, rows: range, chunk_size: int, *args):
+    """Call `function` on one chunk padded (with its first row) to `chunk_size`; unpad."""
+    index = np.asarray(rows)
+    padded = np.concatenate([index, np.full(chunk_size - len(index), index[0])])
+    params = CollisionParams(**{k: jnp.asarray(v[padded]) for k, v in columns.items()})
+    out = jax.device_get(function(params, *args))
+    return jax.tree_util.tree_map(lambda a: np.asarray(a)[: len(index)], out)
+
+
+@eqx.filter_jit
+def _critical_chunk(params: CollisionParams, mesh: Mesh, smoothing):
+    def one(p):
+        return critical_step(ring_on_beam(p, mesh, contact_smoothing=smoothing[0]))
+
+    return jax.vmap(one)(params)
+
+
+def _solve_one(p: CollisionParams, mesh: Mesh, smoothing, settings: Settings):
+    """One collision inside the vmap: its outputs and a solution stripped of histories."""
+    scene = ring_on_beam(p, mesh, contact_smoothing=smoothing[0], yield_smoothing=smoothing[1])
+    solution = simulate(scene, settings)
+    outputs = fractions(solution, scene)
+    outputs["energy_balance_error"] = solution.energy_balance_error
+    # what `diagnose` reads; histories and shapes are dropped so a chunk's output stays small
+    slim = dataclasses.replace(solution, history={}, shapes=(), ts=solution.ts[:1])
+    return outputs, slim
+
+
+@eqx.filter_jit
+def _solve_chunk(params: CollisionParams, mesh: Mesh, smoothing, settings: Settings):
+    return jax.vmap(lambda p: _solve_one(p, mesh, smoothing, settings))(params)
+
+
+_SHARDED: dict = {}
+
+
+def _sharded_solver(devices):
+    """`_solve_chunk` with the chunk split across `devices` (one stopping loop per device)."""
+    key = tuple(devices)
+    if key not in _SHARDED:
+        from jax.sharding import Mesh as DeviceMesh
+        from jax.sharding import PartitionSpec
+
+        device_mesh = DeviceMesh(np.asarray(devices), ("batch",))
+        batch = PartitionSpec("batch")
+
+        @eqx.filter_jit
+        def solve(params, mesh, smoothing, settings):
+            local = jax.shard_map(
+                lambda p: jax.vmap(lambda q: _solve_one(q, mesh, smoothing, settings))(p),
+                mesh=device_mesh,
+                in_specs=(batch,),
+                out_specs=batch,
+                check_vma=False,
+            )
+            return local(params)
+
+        _SHARDED[key] = solve
+    return _SHARDED[key]
+
+
+def _rows(outputs: dict, solution, mesh: Mesh, wall: float) -> dict[str, np.ndarray]:
+    """Output columns of one chunk; `diagnose` gives each row its message."""
+    n = len(solution.result)
+    # `diagnose` reads only the chain names from the scene: any scene of this mesh will do
+    scene = ring_on_beam(CollisionParams(), mesh)
+    out = {k: np.asarray(outputs[k], dtype=np.float64) for k in (*FRACTION_KEYS, *KINETIC_KEYS)}
+    out["energy_balance_error"] = np.asarray(outputs["energy_balance_error"], np.float64)
+    for k in ("t_end", "dt", "dt_critical", "k0"):
+        out[k] = np.asarray(getattr(solution, k), np.float64)
+    out["steps"] = np.asarray(solution.steps, np.int64)
+    out["result"] = np.asarray(solution.result, np.int64)
+    out["status"] = np.asarray([RESULT_NAMES[c] for c in out["result"]], dtype=str)
+    out["message"] = np.asarray([diagnose(solution, scene, i) for i in range(n)], dtype=str)
+    # a chunk runs as one batch: each collision is given an equal share of its wall time
+    out["wall_time_s"] = np.full(n, wall / n)
+    return out
+
+
+class _Progress:
+    """A one-line progress bar on stderr (collisions done, rate, time left)."""
+
+    def __init__(self, total: int, enabled: bool = True, width: int = 30):
+        self.total, self.enabled, self.width = total, enabled, width
+        self.done, self.start = 0, time.perf_counter()
+        self.live = enabled and sys.stderr.isatty()
+
+    def note(self, stage: str) -> None:
+        if self.enabled:
+            self._write(f"msfd sweep: {self.total} collisions, {stage} (compiling on first use)")
+
+    def update(self, n: int) -> None:
+        self.done += n
+        if not self.enabled:
+            return
+        elapsed = time.perf_counter() - self.start
+        rate = self.done / elapsed if elapsed > 0 else float("inf")
+        left = (self.total - self.done) / rate if rate > 0 else float("inf")
+        filled = round(self.width * self.done / self.total)
+        bar = "#" * filled + "-" * (self.width - filled)
+        self._write(
+            f"msfd sweep [{bar}] {self.done}/{self.total} collisions, {rate:.3g}/s, "
+            f"{elapsed:.1f} s, {left:.0f} s left"
+        )
+
+    def close(self) -> None:
+        if self.live:
+            print(file=sys.stderr, flush=True)
+
+    def _write(self, text: str) -> None:
+        if self.live:
+            print(f"\r{text}\033[K", end="", file=sys.stderr, flush=True)
+        else:
+            print(text, file=sys.stderr, flush=True)
