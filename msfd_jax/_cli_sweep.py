@@ -1,0 +1,166 @@
+"""``msfd sweep``: a grid (or a CSV list) of collisions, batched; a summary table and a CSV.
+
+Each non-dimensional group takes a list ``5,10``, a range ``0.5:5:10`` (10 values from 0.5 to
+5, ends included) or one value; the grid is their Cartesian product. ``--axial-constraint``
+takes ``held``, ``free`` or ``both``. ``--from-csv`` reads a list of collisions instead (a
+header of input names, one collision per row). Exit codes as ``msfd run``: 0, 2 bad input,
+3 if any collision of the sweep failed (the CSV is still written, with its status and message).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from ._outputs import FRACTION_KEYS
+from ._params import CollisionParams
+from ._sweep import DEFAULT_CHUNK, INPUTS, SweepTable, sweep
+
+_CONSTRAINT = {"held": [1.0], "free": [0.0], "both": [0.0, 1.0]}
+_SUMMARY = (*FRACTION_KEYS[:5], "t_end", "status")
+
+
+def values(text: str) -> list[float]:
+    """``a:b:n`` (n values from a to b inclusive), ``x,y,...`` or ``x``."""
+    try:
+        if ":" in text:
+            low, high, count = text.split(":")
+            n = int(count)
+            if n < 1:
+                raise ValueError
+            return [float(v) for v in np.linspace(float(low), float(high), n)]
+        return [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a:b:n (n >= 1 values), x,y,... or x; got {text!r}"
+        ) from None
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from . import cli  # imported here: cli.py imports this module to register the command
+
+    group = parser.add_argument_group(
+        "grid (lists x,y,... or ranges a:b:n; unset groups keep the paper's Fig. 13 value)"
+    )
+    defaults = CollisionParams()
+    for field, (flag, text) in cli._PARAMS.items():
+        default = float(getattr(defaults, field))
+        group.add_argument(
+            flag, type=values, dest=field, metavar="VALUES", help=f"{text} (default {default:g})"
+        )
+    group.add_argument(
+        "--axial-constraint",
+        choices=sorted(_CONSTRAINT),
+        default="held",
+        help="beam ends held axially, free to slide, or both (default: held)",
+    )
+    group.add_argument(
+        "--from-csv",
+        type=Path,
+        metavar="PATH",
+        help="a list of collisions instead of a grid: CSV with a header of input names",
+    )
+    cli.add_numerics_arguments(parser)
+    # a sweep keeps final values only: two history samples and no shapes unless asked
+    parser.set_defaults(history_points=2, shape_times=())
+    batch = parser.add_argument_group("batching")
+    batch.add_argument("--chunk-size", type=int, default=DEFAULT_CHUNK, help="per compiled call")
+    batch.add_argument("--shard", action="store_true", help="split chunks across JAX devices")
+    batch.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    out = parser.add_argument_group("output")
+    out.add_argument("--csv", type=Path, metavar="PATH", help="write the table as CSV")
+    out.add_argument("--netcdf", type=Path, metavar="PATH", help="grid as NetCDF (needs xarray)")
+    out.add_argument("--json", action="store_true", help="print the rows as JSON, nothing else")
+
+
+def grid_from_args(args: argparse.Namespace):
+    """The sweep specification: a dict of value lists (grid) or a list of dicts (CSV)."""
+    from . import cli
+
+    given = {k: getattr(args, k) for k in cli._PARAMS if getattr(args, k) is not None}
+    if args.from_csv is None:
+        return {**given, "axial_constraint": _CONSTRAINT[args.axial_constraint]}
+    if given:
+        raise ValueError("--from-csv gives the collisions; do not combine it with grid values")
+    rows = SweepTable.read_csv(args.from_csv)
+    return [{k: float(rows[k][i]) for k in rows.keys() if k in INPUTS} for i in range(len(rows))]
+
+
+def handle(args: argparse.Namespace) -> int:
+    from . import cli
+
+    spec = cli.checked(grid_from_args, args)
+    mesh = cli.checked(cli.mesh_from_args, args)
+    settings = cli.checked(cli.settings_from_args, args)
+    if not args.no_cache:
+        cli.enable_compilation_cache()
+    try:
+        table = sweep(
+            spec,
+            mesh,
+            settings,
+            chunk_size=args.chunk_size,
+            progress=not args.no_progress,
+            contact_smoothing=args.contact_smoothing,
+            yield_smoothing=args.yield_smoothing,
+            shard=args.shard,
+        )
+    except (ValueError, TypeError) as error:  # raised before anything is compiled
+        raise cli.UsageError(cli._name_the_option(str(error))) from None
+    if args.csv is not None:
+        table.to_csv(args.csv)
+    if args.netcdf is not None:
+        _write_netcdf(table, args.netcdf)
+    if args.json:
+        print(json.dumps(table.rows()))
+    else:
+        print(summary(table))
+        if args.csv is not None:
+            print(f"table written to {args.csv}")
+    return cli.EXIT_SOLVE if table.failed.any() else cli.EXIT_OK
+
+
+def _write_netcdf(table: SweepTable, path: Path) -> None:
+    try:
+        table.to_netcdf(path)
+    except ImportError:
+        print("msfd: --netcdf needs xarray (pip install 'msfd-jax[sweep]')", file=sys.stderr)
+    except ValueError as error:
+        print(f"msfd: no NetCDF written: {error}", file=sys.stderr)
+
+
+def summary(table: SweepTable, max_rows: int = 40) -> str:
+    """Inputs that vary and the main fractions of K0, one line per collision."""
+    varying = [k for k in INPUTS if np.unique(table[k]).size > 1]
+    names = [*varying, *_SUMMARY]
+    head = "  ".join(f"{_short(k):>12}" for k in names)
+    lines = [head, "-" * len(head)]
+    n = len(table)
+    shown = range(n) if n <= max_rows else [*range(max_rows // 2), *range(n - max_rows // 2, n)]
+    for i in shown:
+        if n > max_rows and i == n - max_rows // 2:
+            lines.append(f"  ... {n - max_rows} more rows (see --csv)")
+        lines.append("  ".join(_cell(table[k][i]) for k in names))
+    failed = int(table.failed.sum())
+    rate = n / table.wall_time_s if table.wall_time_s > 0 else math.inf
+    lines += [
+        "",
+        f"{n} collisions in {table.wall_time_s:.1f} s ({rate:.3g} per second, including "
+        f"compilation); {failed} failed" + (" (see the message column)" if failed else ""),
+    ]
+    return "\n".join(lines)
+
+
+def _short(name: str) -> str:
+    return name.replace("_ratio", "").replace("axial_constraint", "constrained")[:12]
+
+
+def _cell(value) -> str:
+    if isinstance(value, str | np.str_):
+        return f"{value:>12}"
+    return f"{float(value):12.4g}"

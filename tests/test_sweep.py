@@ -1,0 +1,155 @@
+"""Sweeps: one compiled vmap over chunks equals single runs; grid/list expansion; CSV; CLI.
+
+Every sweep here runs the same four collisions on the small mesh with the shared short
+settings and chunk size 3 (two chunks, the second padded with two copies of its first row), so
+the vmapped program is compiled once for the file; the single runs reuse the program that the
+other test files compile for `SMALL_MESH` and `SHORT`.
+"""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+from conftest import SHORT, SMALL_MESH
+
+import msfd_jax as m
+from msfd_jax import _sweep
+from msfd_jax._sweep import INPUTS, OUTPUTS, SweepTable, collisions, sweep
+from msfd_jax.cli import main
+
+GRID = {"thickness_ratio": [1.0, 2.5], "axial_constraint": [0.0, 1.0]}
+POINTS = [(1.0, 0.0), (1.0, 1.0), (2.5, 0.0), (2.5, 1.0)]  # C order: last key fastest
+CHUNK = 3
+
+
+@pytest.fixture(scope="module")
+def table():
+    return sweep(GRID, SMALL_MESH, SHORT, chunk_size=CHUNK, progress=False)
+
+
+def test_grid_expansion_and_list_input():
+    columns, grid = collisions({"mass_ratio": [5, 10, 20], "axial_constraint": [True, False]})
+    assert grid is not None and list(grid) == ["mass_ratio", "axial_constraint"]
+    assert columns["mass_ratio"].tolist() == [5, 5, 10, 10, 20, 20]
+    assert columns["axial_constraint"].tolist() == [1, 0, 1, 0, 1, 0]
+    # inputs not swept keep the base values (the paper's showcase by default)
+    assert set(columns) == set(INPUTS)
+    np.testing.assert_array_equal(columns["thickness_ratio"], 2.5)
+    base = m.CollisionParams(velocity=0.5)
+    rows, grid = collisions([{"thickness_ratio": 1.0}, {"velocity": 0.7}], base)
+    assert grid is None
+    assert rows["thickness_ratio"].tolist() == [1.0, 2.5]
+    assert rows["velocity"].tolist() == [0.5, 0.7]
+
+
+def test_sweep_equals_single_runs(table):
+    assert len(table) == len(POINTS)  # two chunks of 3, the padding of the second dropped
+    assert set(table.keys()) == {*INPUTS, *OUTPUTS}
+    for i, (thickness, constraint) in enumerate(POINTS):
+        assert (table["thickness_ratio"][i], table["axial_constraint"][i]) == (
+            thickness,
+            constraint,
+        )
+        params = m.CollisionParams(thickness_ratio=thickness, axial_constraint=constraint)
+        single = m.run(params, SMALL_MESH, SHORT).to_json()
+        # vmap batches the same arithmetic but may reorder float reductions (measured up to
+        # 9e-11 relative on these runs); 1e-9 still catches any difference in the physics
+        fractions = {**single["fractions"], **single["kinetic_split"]}
+        for key, value in fractions.items():
+            assert table[key][i] == pytest.approx(value, rel=1e-9, abs=1e-12), key
+        assert table["energy_balance_error"][i] == pytest.approx(
+            single["energy_balance_error"], rel=1e-6, abs=1e-10
+        )
+        for key in ("t_end", "dt", "dt_critical", "k0"):
+            assert table[key][i] == pytest.approx(single[key], rel=1e-9), key
+        assert table["steps"][i] == single["steps"]
+        assert table["status"][i] == single["status"]
+
+
+def test_list_input_gives_the_same_rows(table, capsys):
+    rows = [dict(thickness_ratio=t, axial_constraint=a) for t, a in POINTS]
+    listed = sweep(rows, SMALL_MESH, SHORT, chunk_size=CHUNK, progress=True)
+    assert listed.grid is None and table.grid is not None
+    for key in (*INPUTS, *OUTPUTS):
+        if key != "wall_time_s":  # same program, same chunks: identical numbers
+            np.testing.assert_array_equal(listed[key], table[key], err_msg=key)
+    assert "4/4 collisions" in capsys.readouterr().err
+
+
+def test_csv_round_trip(table, tmp_path):
+    back = SweepTable.read_csv(table.to_csv(tmp_path / "sweep.csv"))
+    assert list(back.keys()) == list(table.keys())
+    for key in table.keys():
+        assert back[key].dtype.kind == table[key].dtype.kind, key
+        np.testing.assert_array_equal(back[key], table[key], err_msg=key)  # floats exact
+
+
+def test_failed_runs_are_rows_with_status_and_message():
+    # an energy guard far below the O(1e-4) balance error of these runs stops every one;
+    # the guard is a traced number, so this reuses the compiled program
+    strict = dataclasses.replace(SHORT, energy_guard=1e-12)
+    failed = sweep(GRID, SMALL_MESH, strict, chunk_size=CHUNK, progress=False)
+    assert failed.failed.all()
+    assert set(failed["status"]) == {"energy balance broken"}
+    assert all("broke its energy balance" in text for text in failed["message"])
+
+
+@pytest.mark.parametrize(
+    "spec, match",
+    [
+        ({"thickness_ratio": [1.0, -1.0]}, "thickness_ratio"),
+        ([{"velocity": 0.8}, {"velocity": float("nan")}], "velocity"),
+        ({"span_ratio": [1.5]}, "span_ratio"),  # inside the contact region OC = 2R
+        ({"thickness": [1.0]}, "unknown sweep inputs"),
+        ({"mass_ratio": []}, "at least one value"),
+    ],
+)
+def test_bad_values_refused_before_compiling(spec, match, monkeypatch):
+    def compiled(*args, **kwargs):
+        raise AssertionError("a compiled program was called with unchecked inputs")
+
+    monkeypatch.setattr(_sweep, "_solve_chunk", compiled)
+    monkeypatch.setattr(_sweep, "_critical_chunk", compiled)
+    with pytest.raises(ValueError, match=match):
+        sweep(spec, SMALL_MESH, SHORT, chunk_size=CHUNK, progress=False)
+
+
+def test_only_a_grid_maps_to_xarray(table):
+    rows = SweepTable(dict(table.columns))
+    with pytest.raises(ValueError, match="full grid"):
+        rows.to_xarray()
+
+
+def test_cli_sweep(table, tmp_path, capsys):
+    small = ["--ring-segments", "6", "--beam-contact-segments", "8", "--beam-outer-segments", "2"]
+    short = ["--t-max", "1.5", "--history-points", "31", "--shape-times", "0.5"]
+    grid = ["--thickness-ratio", "1:2.5:2", "--axial-constraint", "both"]
+    out = tmp_path / "sweep.csv"
+    argv = ["sweep", *grid, *small, *short, "--chunk-size", "3", "--no-cache"]
+    assert main([*argv, "--csv", str(out), "--json", "--no-progress"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["steps"] for r in rows] == table["steps"].tolist()
+    assert [r["beam_bending"] for r in rows] == table["beam_bending"].tolist()
+    assert len(SweepTable.read_csv(out)) == 4
+    # the list form reads the CSV back: same collisions, same numbers
+    assert (
+        main(
+            [
+                "sweep",
+                "--from-csv",
+                str(out),
+                *small,
+                *short,
+                "--chunk-size",
+                "3",
+                "--no-cache",
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
+    printed = capsys.readouterr().out
+    assert "4 collisions" in printed and "0 failed" in printed
+    assert main(["sweep", "--mass-ratio", "5,-1", "--no-cache"]) == 2
+    assert "--mass-ratio" in capsys.readouterr().err
