@@ -1,0 +1,139 @@
+"""Sweep throughput: collisions per second of `msfd_jax._sweep.sweep` by chunk size and mesh.
+
+A 64-collision sweep (h_b/h_r from 0.25 to 5 in 16 steps x free/constrained x g = 5, 10; the
+paper's v0 = 0.82, Fig. 10) runs on the paper's mesh (15, 20 + 5) and on the small test mesh
+(6, 8 + 2) with chunk sizes 1, 8, 32, 64. Each configuration is compiled first on one chunk
+(same `max_steps`, so the same program), then the whole sweep is timed: collisions/s exclude
+compilation. ``--shard`` re-runs with each chunk split across all JAX devices; on CPU start it
+as ``XLA_FLAGS=--xla_force_host_platform_device_count=2 python benchmarks/sweep_throughput.py
+--shard`` to get two host devices. Results are merged into ``benchmarks/results/sweep.json``
+and rewritten as ``sweep.md``.
+
+    python benchmarks/sweep_throughput.py                 # unsharded, both meshes
+    XLA_FLAGS=--xla_force_host_platform_device_count=2 \
+        python benchmarks/sweep_throughput.py --shard     # two host devices
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import platform
+import time
+from pathlib import Path
+
+import jax
+import numpy as np
+
+import msfd_jax as m
+from msfd_jax._sweep import SWEEP_SETTINGS, collisions, step_bound, sweep
+
+RESULTS = Path(__file__).parent / "results"
+MESHES = {"paper": m.Mesh(), "small": m.Mesh(6, 8, 2)}
+GRID = {
+    "thickness_ratio": np.linspace(0.25, 5.0, 16),
+    "axial_constraint": [0.0, 1.0],
+    "mass_ratio": [5.0, 10.0],
+}
+
+
+def bounded_settings(mesh: m.Mesh) -> m.Settings:
+    """SWEEP_SETTINGS with the step bound of the sweep, so a one-chunk warm-up compiles it."""
+    columns, _ = collisions(GRID)
+    rows = [m.CollisionParams(**{k: v[i] for k, v in columns.items()}) for i in range(64)]
+    dt_crit = np.asarray([float(m.critical_step(m.ring_on_beam(p, mesh))) for p in rows])
+    return dataclasses.replace(SWEEP_SETTINGS, max_steps=step_bound(dt_crit, SWEEP_SETTINGS))
+
+
+def measure(mesh_name: str, chunk: int, shard: bool, settings: m.Settings) -> dict:
+    mesh = MESHES[mesh_name]
+    first = [dict(zip(GRID, p, strict=True)) for p in _points()[:chunk]]
+    tick = time.perf_counter()
+    sweep(first, mesh, settings, chunk_size=chunk, progress=False, shard=shard)
+    compile_and_first = time.perf_counter() - tick
+    table = sweep(GRID, mesh, settings, chunk_size=chunk, progress=False, shard=shard)
+    wall = table.wall_time_s
+    record = dict(
+        mesh=mesh_name,
+        chunk_size=chunk,
+        shard=shard,
+        devices=jax.device_count() if shard else 1,
+        collisions=len(table),
+        wall_s=wall,
+        collisions_per_s=len(table) / wall,
+        first_chunk_with_compile_s=compile_and_first,
+        failed=int(table.failed.sum()),
+        mean_steps=float(np.mean(table["steps"])),
+        max_steps_bound=settings.max_steps,
+        verlet_steps_per_s=float(np.sum(table["steps"]) / wall),
+    )
+    print(json.dumps(record), flush=True)
+    return record
+
+
+def _points():
+    import itertools
+
+    return list(itertools.product(*GRID.values()))
+
+
+def write(records: list[dict]) -> None:
+    path = RESULTS / "sweep.json"
+    old = json.loads(path.read_text())["runs"] if path.exists() else []
+    key = lambda r: (r["mesh"], r["chunk_size"], r["shard"], r["devices"])  # noqa: E731
+    merged = {key(r): r for r in [*old, *records]}
+    runs = sorted(merged.values(), key=key)
+    machine = dict(
+        platform=platform.platform(),
+        cpus=os.cpu_count(),
+        jax=jax.__version__,
+        backend=jax.default_backend(),
+    )
+    path.write_text(json.dumps(dict(machine=machine, grid=_grid_text(), runs=runs), indent=1))
+    lines = [
+        "# Sweep throughput",
+        "",
+        f"Written by `benchmarks/sweep_throughput.py` on {machine['platform']}, "
+        f"{machine['cpus']} CPUs, jax {machine['jax']} ({machine['backend']}).",
+        f"Sweep: {_grid_text()}; default sweep settings (t_max = 10, settle rule, safety 0.5).",
+        "Collisions/s exclude compilation (each configuration is compiled on one chunk first).",
+        "",
+        "| mesh | chunk | devices | collisions/s | wall [s] | compile + first chunk [s] |"
+        " mean steps | Verlet steps/s | failed |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in runs:
+        lines.append(
+            f"| {r['mesh']} | {r['chunk_size']} | {r['devices']}"
+            f"{' (shard_map)' if r['shard'] else ''} | {r['collisions_per_s']:.3g} | "
+            f"{r['wall_s']:.3g} | {r['first_chunk_with_compile_s']:.3g} | "
+            f"{r['mean_steps']:.0f} | {r['verlet_steps_per_s']:.3g} | {r['failed']} |"
+        )
+    (RESULTS / "sweep.md").write_text("\n".join(lines) + "\n")
+
+
+def _grid_text() -> str:
+    return (
+        "64 collisions: h_b/h_r = 0.25..5 (16 values) x axial constraint free/held x g = 5, 10;"
+        " v0 = 0.82, E/Y = 500, R/h_r = 10, L_b = 3R"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--meshes", nargs="+", default=list(MESHES), choices=list(MESHES))
+    parser.add_argument("--chunks", nargs="+", type=int, default=[1, 8, 32, 64])
+    parser.add_argument("--shard", action="store_true", help="split chunks across devices")
+    args = parser.parse_args()
+    records = []
+    for mesh_name in args.meshes:
+        settings = bounded_settings(MESHES[mesh_name])
+        for chunk in args.chunks:
+            records.append(measure(mesh_name, chunk, args.shard, settings))
+            write(records)
+
+
+if __name__ == "__main__":
+    main()
