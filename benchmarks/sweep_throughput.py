@@ -24,6 +24,7 @@ import platform
 import time
 from pathlib import Path
 
+import equinox as eqx
 import jax
 import numpy as np
 
@@ -43,7 +44,8 @@ def bounded_settings(mesh: m.Mesh) -> m.Settings:
     """SWEEP_SETTINGS with the step bound of the sweep, so a one-chunk warm-up compiles it."""
     columns, _ = collisions(GRID)
     rows = [m.CollisionParams(**{k: v[i] for k, v in columns.items()}) for i in range(64)]
-    dt_crit = np.asarray([float(m.critical_step(m.ring_on_beam(p, mesh))) for p in rows])
+    critical_step = eqx.filter_jit(m.critical_step)  # compiled once per mesh
+    dt_crit = np.asarray([float(critical_step(m.ring_on_beam(p, mesh))) for p in rows])
     return dataclasses.replace(SWEEP_SETTINGS, max_steps=step_bound(dt_crit, SWEEP_SETTINGS))
 
 

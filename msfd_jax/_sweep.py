@@ -348,14 +348,19 @@ def _sharded_solver(devices):
 
         @eqx.filter_jit
         def solve(params, mesh, smoothing, settings):
-            local = jax.shard_map(
-                lambda p: jax.vmap(lambda q: _solve_one(q, mesh, smoothing, settings))(p),
+            def local(p, smoothing, settings):
+                return jax.vmap(lambda q: _solve_one(q, mesh, smoothing, settings))(p)
+
+            # numbers replicated on every device; the batch split; no cross-device loop
+            dynamic, static = eqx.partition(settings, eqx.is_array)
+            sharded = jax.shard_map(
+                lambda p, sm, dyn: local(p, sm, eqx.combine(dyn, static)),
                 mesh=device_mesh,
-                in_specs=(batch,),
+                in_specs=(batch, PartitionSpec(), PartitionSpec()),
                 out_specs=batch,
                 check_vma=False,
             )
-            return local(params)
+            return sharded(params, smoothing, dynamic)
 
         _SHARDED[key] = solve
     return _SHARDED[key]
