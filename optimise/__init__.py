@@ -1,0 +1,48 @@
+"""optimise: gradient-based tuning of a ring-on-beam design for a target energy split (issue 4).
+
+Imports `msfd_jax`; `msfd_jax` never imports this package (its CLI loads it lazily for
+``msfd tune``).
+"""
+
+from ._design import DEFAULT_BOUNDS, Box, Design, default_box, project
+from ._gradient import MODES, finite_difference, gradient
+from ._objective import (
+    STRUCTURES,
+    AbstractTerm,
+    Objective,
+    ShareAtLeast,
+    ShareAtMost,
+    TargetShare,
+    objective,
+    share,
+)
+from ._problem import Evaluation, Problem, evaluate, make_problem
+from ._tune import DEFAULT_STAGES, Stage, TuneResult, achievable_range, tune
+
+__all__ = [
+    "DEFAULT_STAGES",
+    "Stage",
+    "TuneResult",
+    "achievable_range",
+    "tune",
+    "DEFAULT_BOUNDS",
+    "MODES",
+    "STRUCTURES",
+    "AbstractTerm",
+    "Box",
+    "Design",
+    "Evaluation",
+    "Objective",
+    "Problem",
+    "ShareAtLeast",
+    "ShareAtMost",
+    "TargetShare",
+    "default_box",
+    "evaluate",
+    "finite_difference",
+    "gradient",
+    "make_problem",
+    "objective",
+    "project",
+    "share",
+]

@@ -1,0 +1,130 @@
+"""Derivatives of an objective with respect to the design, forward or reverse mode.
+
+The objective J is a function of the partition f (fractions of K0), so
+dJ/dx = sum_k dJ/df_k df_k/dx. The simulation is differentiated once per call:
+
+- forward mode: `jax.jvp` through ``simulate(..., adjoint=diffrax.ForwardMode())`` gives
+  df/dx along one design variable per solve: the cheap choice for one or a few variables;
+- reverse mode: `jax.grad` of sum_k c_k f_k (c = dJ/df) through diffrax's
+  ``RecursiveCheckpointAdjoint``: one backward sweep for any number of variables, recomputing
+  the forward solve between checkpoints (one primal solve first gives c).
+
+The compiled simulation programs never see the objective, so every objective shares them.
+Both modes differentiate the same discrete map: the time step is held fixed (``msfd_jax``
+stops its gradient), so a finite difference agrees with them only at a fixed ``Settings.dt``
+and on a smoothed model (``yield_smoothing`` and ``contact_smoothing`` > 0); the sharp model's
+derivative is exact for its discrete map but jagged in the design (issue 4).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+from ._design import Design
+from ._problem import (
+    Evaluation,
+    Problem,
+    _evaluate,
+    _partition,
+    arrays,
+    evaluate,
+    objective_value_and_grad,
+)
+
+MODES = ("forward", "reverse")
+
+
+@eqx.filter_jit
+def _forward(design, tangent, problem, yield_smoothing, contact_smoothing):
+    def partition(d):
+        adjoint = diffrax.ForwardMode()
+        return _partition(d, problem, yield_smoothing, contact_smoothing, adjoint)
+
+    (fractions, result), (derivative, _) = jax.jvp(partition, (design,), (tangent,))
+    return fractions, derivative, result
+
+
+@eqx.filter_jit
+def _reverse(design, cotangent, problem, yield_smoothing, contact_smoothing):
+    def weighted(d):
+        adjoint = diffrax.RecursiveCheckpointAdjoint()
+        fractions, result = _partition(d, problem, yield_smoothing, contact_smoothing, adjoint)
+        return sum(cotangent[k] * fractions[k] for k in cotangent), (fractions, result)
+
+    (_, (fractions, result)), grad = jax.value_and_grad(weighted, has_aux=True)(design)
+    return fractions, grad, result
+
+
+def _basis(design: Design) -> list[Design]:
+    leaves, treedef = jax.tree_util.tree_flatten(design)
+    unit = [[jnp.ones_like(x) if j == i else jnp.zeros_like(x) for j, x in enumerate(leaves)]
+            for i in range(len(leaves))]  # fmt: skip
+    return [jax.tree_util.tree_unflatten(treedef, basis) for basis in unit]
+
+
+def gradient(
+    design: Design,
+    problem: Problem,
+    objective,
+    *,
+    mode: Literal["forward", "reverse"] = "forward",
+    yield_smoothing=0.0,
+    contact_smoothing=0.0,
+    partition_at: dict[str, Any] | None = None,
+) -> tuple[Evaluation, Design]:
+    """The objective at `design` and its gradient with respect to every design variable.
+
+    **Arguments:**
+    - `design`: the point (`Design`).  `problem`: the collision around it (`make_problem`).
+    - `objective`: a function of the partition (`Objective`, or any term).
+    - `mode`: ``"forward"`` (one jvp per variable) or ``"reverse"`` (one vjp).
+    - `yield_smoothing` (fraction of the yield value), `contact_smoothing` (units of R): the
+      model that is differentiated.
+    - `partition_at`: where to evaluate J and dJ/df (default: the differentiated model's
+      partition). `tune` passes the sharp model's partition here, so that the value is the
+      sharp model's and only df/dx comes from the smoothed one.
+
+    **Returns:** (`Evaluation` of the differentiated model, with ``value`` J at
+    `partition_at` when given; the gradient dJ/dx as a `Design`).
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    design, objective = arrays(design), arrays(objective)
+    smoothing = arrays((yield_smoothing, contact_smoothing))
+    if mode == "reverse":
+        if partition_at is None:  # dJ/df at the smoothed partition: one primal solve first
+            partition_at, _ = _evaluate(design, problem, *smoothing)
+        value, weights = objective_value_and_grad(objective, partition_at)
+        fractions, grad, result = _reverse(design, weights, problem, *smoothing)
+        return Evaluation(value, fractions, result), grad
+    columns = []
+    for tangent in _basis(design):  # one tangent solve per variable, one compiled program
+        fractions, derivative, result = _forward(design, tangent, problem, *smoothing)
+        columns.append(derivative)
+    value, weights = objective_value_and_grad(
+        objective, fractions if partition_at is None else partition_at
+    )
+    slopes = [sum(weights[k] * column[k] for k in weights) for column in columns]
+    leaves, treedef = jax.tree_util.tree_flatten(design)
+    return Evaluation(value, fractions, result), jax.tree_util.tree_unflatten(treedef, slopes)
+
+
+def finite_difference(
+    design: Design, problem: Problem, objective, *, step=1e-3, **smoothing
+) -> Design:
+    """Central finite differences (J(x + h) - J(x - h)) / 2h of the objective, per variable."""
+    leaves, treedef = jax.tree_util.tree_flatten(arrays(design))
+    out = []
+    for i, x in enumerate(leaves):
+        values = []
+        for sign in (1.0, -1.0):
+            moved = [x + sign * step if j == i else y for j, y in enumerate(leaves)]
+            point = jax.tree_util.tree_unflatten(treedef, moved)
+            values.append(evaluate(point, problem, objective, **smoothing).value)
+        out.append((values[0] - values[1]) / (2.0 * step))
+    return jax.tree_util.tree_unflatten(treedef, out)

@@ -1,0 +1,271 @@
+"""Tuning a design to an energy-split target: projected Adam on a smoothed model, annealed.
+
+Method (issue 4: "a path back to the sharp model"):
+
+1. Each stage fixes a yield smoothing s (fraction of the yield value) and a contact smoothing w
+   (units of R); stages anneal both towards zero. They are arrays in the scene, so no stage
+   compiles a new program.
+2. Each iteration evaluates the **sharp** model at the design, and takes the gradient
+   dJ/dx = dJ/df(f_sharp) . df_smooth/dx: the objective's value and its derivative with respect
+   to the partition come from the sharp model, only the slope of the partition in the design
+   from the smoothed one (whose slope is clean, where the sharp one is jagged). At a fixed
+   point f_sharp meets the target, so the smoothing's bias on the partition (up to ~0.1 K0 at
+   s = 0.05, `benchmarks/smoothing_bias.py`) does not move the answer; it only has to give a
+   slope of the right sign. ``sharp_correction=False`` tunes the smoothed model itself.
+3. Adam (optax) steps in unit coordinates u = (x - low)/(high - low), projected back into
+   [0, 1]; every stage restarts Adam with its own (smaller) learning rate.
+4. Stop as soon as the sharp model meets every term within `tolerance` (K0). If it does not,
+   and the design sits on a bound with the gradient pushing outwards, the target is reported
+   ``unreachable`` together with the shares the sharp model gives at the corners of the box.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+import time
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import jax
+import numpy as np
+import optax
+
+import msfd_jax as m
+
+from ._design import Box, Design, as_arrays, default_box, project
+from ._gradient import gradient
+from ._objective import Objective, share
+from ._problem import Problem, arrays, check, evaluate
+
+
+class Stage(NamedTuple):
+    """One annealing stage: smoothing levels, iteration budget and Adam's learning rate (in u)."""
+
+    yield_smoothing: float
+    contact_smoothing: float
+    iterations: int
+    learning_rate: float
+
+
+# Smoothing levels from benchmarks/smoothing_bias.py (bias of the beam share up to ~0.1 K0 at
+# the first level, ~0.02 at the last); learning rates in unit coordinates, halved per stage.
+DEFAULT_STAGES = (
+    Stage(0.05, 0.01, 10, 0.08),
+    Stage(0.02, 0.004, 10, 0.04),
+    Stage(0.005, 0.001, 10, 0.02),
+)
+
+
+@dataclasses.dataclass
+class TuneResult:
+    """The outcome of `tune`: the design, the sharp model's partition there, and the history."""
+
+    design: Design
+    status: str  # "converged", "unreachable" or "not converged"
+    message: str
+    fractions: dict[str, float]  # sharp model at `design`
+    violation: float  # largest violation over the objective's terms (K0), sharp model
+    iterations: int
+    objective_history: list[float]  # J at each iterate, sharp-model partition
+    design_history: list[dict[str, float]]
+    achievable: dict[str, list[float]]  # [min, max] of each share over the box's corners
+    wall_time_s: float
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            **self.design.as_floats(),
+            "fractions": {k: self.fractions[k] for k in m.FRACTION_KEYS},
+            "kinetic_split": {
+                k: self.fractions[k] for k in ("kinetic_ring", "kinetic_block", "kinetic_beam")
+            },
+            "status": self.status,
+            "message": self.message,
+            "violation": self.violation,
+            "iterations": self.iterations,
+            "objective_history": self.objective_history,
+            "design_history": self.design_history,
+            "achievable": self.achievable,
+            "wall_time_s": self.wall_time_s,
+        }
+
+
+def progress_line(iteration: int, stage: Stage, design: Design, value, violation) -> str:
+    variables = " ".join(f"{k}={v:.4f}" for k, v in design.as_floats().items())
+    return (
+        f"tune: it {iteration:3d}  s={stage.yield_smoothing:g} w={stage.contact_smoothing:g}  "
+        f"{variables}  J={float(value):.3e}  worst miss={float(violation):.4f} K0"
+    )
+
+
+def _stderr(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+def _floats(fractions) -> dict[str, float]:
+    return {k: float(v) for k, v in fractions.items()}
+
+
+def achievable_range(problem: Problem, objective: Objective, box: Box) -> dict[str, list[float]]:
+    """[min, max] of each share the objective names, sharp model, over the box's corners."""
+    shares: dict[str, list[float]] = {s: [] for s in objective.structures()}
+    for corner in box.corners():
+        evaluation = evaluate(corner, problem, objective)
+        check(evaluation, corner)
+        for s in shares:
+            shares[s].append(float(share(evaluation.fractions, s)))
+    return {s: [min(v), max(v)] for s, v in shares.items()}
+
+
+def _terms_met(objective: Objective, fractions, tolerance: float) -> list[bool]:
+    return [float(term.violation(fractions)) <= tolerance for term in objective.terms]
+
+
+def _on_bound_pushing_out(unit: Design, grad_unit: Design) -> bool:
+    """True if some variable sits on a bound and descent would take it outside the box."""
+    leaves = jax.tree_util.tree_leaves
+    for u, g in zip(leaves(unit), leaves(grad_unit), strict=True):
+        if (float(u) <= 0.0 and float(g) > 0.0) or (float(u) >= 1.0 and float(g) < 0.0):
+            return True
+    return False
+
+
+def tune(
+    design: Design,
+    problem: Problem,
+    objective: Objective,
+    *,
+    box: Box | None = None,
+    stages: tuple[Stage, ...] = DEFAULT_STAGES,
+    mode: str = "forward",
+    tolerance: float = 0.01,
+    sharp_correction: bool = True,
+    progress: Callable[[str], None] | None = _stderr,
+) -> TuneResult:
+    """Find a design whose *sharp-model* partition meets `objective` within `tolerance` (K0).
+
+    **Arguments:**
+    - `design`: the starting point (`Design`; its designed fields are what is tuned).
+    - `problem`: the collision around it (`make_problem`, with the same `box`).
+    - `objective`: the terms to meet (`objective(TargetShare(...), ShareAtMost(...))`).
+    - `box`: bounds of the design (default `default_box(design)`).
+    - `stages`: the annealing schedule (`Stage`s); `mode`: ``"forward"`` or ``"reverse"``.
+    - `tolerance`: how close (K0) the sharp partition must come to every term.
+    - `sharp_correction`: take J and dJ/df from the sharp model (module docstring, step 2).
+    - `progress`: called with one line per iteration (default: printed on stderr); None: quiet.
+    """
+    start = time.perf_counter()
+    box = default_box(design) if box is None else box
+    objective = arrays(objective)
+    unit = project(box.to_unit(as_arrays(design)))
+    width = box.width()
+    run = _Run(objective, tolerance, progress)
+    for stage in stages:
+        optimiser = optax.adam(stage.learning_rate)
+        state = optimiser.init(unit)
+        smoothing = dict(
+            yield_smoothing=stage.yield_smoothing, contact_smoothing=stage.contact_smoothing
+        )
+        for _ in range(stage.iterations):
+            point = box.from_unit(unit)
+            sharp = run.record(point, evaluate(point, problem, objective), stage)
+            if run.met:
+                return _finish(run, problem, box, "converged", start)
+            at = sharp.fractions if sharp_correction else None
+            smoothed, grad = gradient(
+                point, problem, objective, mode=mode, partition_at=at, **smoothing
+            )
+            check(smoothed, point)
+            grad_unit = jax.tree_util.tree_map(lambda g, w: g * w, grad, width)
+            run.pushing_out = run.pushing_out + 1 if _on_bound_pushing_out(unit, grad_unit) else 0
+            if run.pushing_out >= STALL:
+                break  # held on a bound by the gradient: more iterations cannot help
+            updates, state = optimiser.update(grad_unit, state, unit)
+            unit = project(optax.apply_updates(unit, updates))
+        if run.pushing_out >= STALL:
+            break
+    else:
+        point = box.from_unit(unit)
+        run.record(point, evaluate(point, problem, objective), stages[-1])
+        if run.met:
+            return _finish(run, problem, box, "converged", start)
+    # unreachable: held on a bound, or some term met by no design seen (box corners included)
+    corners_met = [
+        _terms_met(objective, evaluate(c, problem, objective).fractions, tolerance)
+        for c in box.corners()
+    ]
+    ever_met = np.any(np.array(run.terms_met + corners_met), axis=0)
+    unreachable = run.pushing_out >= STALL or not ever_met.all()
+    return _finish(run, problem, box, "unreachable" if unreachable else "not converged", start)
+
+
+# consecutive iterations on a bound with the gradient pointing out before tuning gives up
+STALL = 3
+
+
+class _Run:
+    """Book-keeping of one tuning run: histories, the best design seen, progress lines."""
+
+    def __init__(self, objective: Objective, tolerance: float, progress):
+        self.objective, self.tolerance, self.progress = objective, tolerance, progress
+        self.history: list[float] = []
+        self.designs: list[dict[str, float]] = []
+        self.terms_met: list[list[bool]] = []
+        self.best: tuple[float, Design, Any] | None = None
+        self.met = False
+        self.pushing_out = 0
+
+    def record(self, point: Design, sharp, stage: Stage):
+        check(sharp, point)
+        value = float(sharp.value)
+        violation = float(self.objective.violation(sharp.fractions))
+        self.history.append(value)
+        self.designs.append(point.as_floats())
+        self.terms_met.append(_terms_met(self.objective, sharp.fractions, self.tolerance))
+        self.met = violation <= self.tolerance
+        if self.best is None or self.met or value < self.best[0]:
+            self.best = (value, point, sharp)
+        if self.progress is not None:
+            self.progress(progress_line(len(self.history), stage, point, value, violation))
+        return sharp
+
+
+def _finish(run: _Run, problem: Problem, box: Box, status: str, start: float) -> TuneResult:
+    """The result at the best design seen (the last one when converged)."""
+    _, point, sharp = run.best
+    objective, tolerance = run.objective, run.tolerance
+    violation = float(objective.violation(sharp.fractions))
+    achievable = achievable_range(problem, objective, box)
+    ranges = ", ".join(f"{s} share in [{lo:.4f}, {hi:.4f}]" for s, (lo, hi) in achievable.items())
+    variables = ", ".join(f"{k} = {v:.4f}" for k, v in point.as_floats().items())
+    if status == "converged":
+        message = (
+            f"converged: {objective.describe()} met within {violation:.4f} <= {tolerance:g} K0 "
+            f"by the sharp model at {variables}"
+        )
+    elif status == "unreachable":
+        message = (
+            f"unreachable within the bounds: {objective.describe()}; the best design seen "
+            f"({variables}) misses by {violation:.4f} K0 (tolerance {tolerance:g}); at the "
+            f"corners of the box the sharp model gives {ranges}"
+        )
+    else:
+        message = (
+            f"not converged: {objective.describe()} missed by {violation:.4f} K0 at {variables} "
+            f"after {len(run.history)} evaluations; raise the stages' iterations"
+        )
+    return TuneResult(
+        design=point,
+        status=status,
+        message=message,
+        fractions=_floats(sharp.fractions),
+        violation=violation,
+        iterations=len(run.history),
+        objective_history=run.history,
+        design_history=run.designs,
+        achievable=achievable,
+        wall_time_s=time.perf_counter() - start,
+    )
+
+
+__all__ = ["DEFAULT_STAGES", "Stage", "TuneResult", "achievable_range", "tune"]
