@@ -19,6 +19,8 @@ from pathlib import Path
 import msfd_jax as m
 
 from . import _cli_bench as _bench
+
+from . import _cli_bench as _bench
 from . import _cli_sweep as _sweep
 
 EXIT_OK, EXIT_USAGE, EXIT_SOLVE = 0, 2, 3
@@ -289,6 +291,7 @@ def report(collision: m.Collision, scales: m.Scales | None = None) -> str:
 
 COMMANDS: dict[str, tuple[str, Callable, Callable]] = {
     "run": ("simulate one collision (default: the paper's Fig. 13 showcase)", _add_run, _run),
+    "bench": ("recorded studies: msfd bench stability", _bench.add_bench_arguments, _bench.bench),
     "bench": ("recorded studies: msfd bench stability", _bench.add_bench_arguments, _bench.bench),
     "sweep": (
         "run a grid or list of collisions, batched (vmap)",

@@ -1,0 +1,84 @@
+"""``msfd bench``: recorded studies, one sub-choice each (``stability`` now; ``accuracy`` later).
+
+A study registers itself in `BENCHES` as (help, add_arguments, handler), the same shape as
+cli.py's `COMMANDS`, so that ``msfd bench accuracy`` is one more entry here.
+
+Exit codes: 0 every row as expected, 1 some row not as expected, 2 bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import time
+from collections.abc import Callable
+
+EXIT_UNEXPECTED = 1
+
+
+def _add_stability(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--quick", action="store_true", help="coarse mesh, tau <= 3 (a minute instead of several)"
+    )
+    parser.add_argument("--json", action="store_true", help="print the rows as one JSON object")
+    parser.add_argument(
+        "--only", nargs="+", metavar="SCENE", help="run only these scenes (default: all)"
+    )
+
+
+def _stability(args: argparse.Namespace) -> int:
+    from . import _stability
+    from .cli import UsageError, enable_compilation_cache
+
+    if args.only:
+        unknown = [n for n in args.only if n not in _stability.BY_NAME]
+        if unknown:
+            raise UsageError(
+                f"unknown scene(s) {', '.join(unknown)}; known: {', '.join(_stability.BY_NAME)}"
+            )
+    enable_compilation_cache()
+    start = time.perf_counter()
+    rows = _stability.run_catalogue(args.only, quick=args.quick)
+    machine = f"{platform.node()} ({platform.machine()}, {platform.processor() or 'cpu'})"
+    stamp = time.strftime("%Y-%m-%d %H:%M %Z")
+    total = time.perf_counter() - start
+    if args.json:
+        print(
+            json.dumps(
+                {
+                    "machine": machine,
+                    "date": stamp,
+                    "quick": args.quick,
+                    "total_wall_time_s": total,
+                    "rows": rows,
+                }
+            )
+        )
+    else:
+        print(_stability.markdown_table(rows))
+        print(
+            f"\n{len(rows)} scenes, {'quick' if args.quick else 'full'} form, "
+            f"{total:.0f} s in all (wall times include compiling), {stamp} on {machine}"
+        )
+    bad = [r["name"] for r in rows if r["verdict"] != "as expected"]
+    return EXIT_UNEXPECTED if bad else 0
+
+
+BENCHES: dict[str, tuple[str, Callable, Callable]] = {
+    "stability": ("stiff and extreme scenes (docs/stability.md)", _add_stability, _stability),
+}
+
+
+def add_bench_arguments(parser: argparse.ArgumentParser) -> None:
+    """One sub-choice per study in `BENCHES`."""
+    studies = parser.add_subparsers(dest="study", required=True, metavar="STUDY")
+    for name, (text, add_arguments, handler) in BENCHES.items():
+        sub = studies.add_parser(name, help=text, description=text)
+        add_arguments(sub)
+        sub.set_defaults(study_handler=handler)
+
+
+def bench(args: argparse.Namespace) -> int:
+    """Handler of ``msfd bench``: run the chosen study."""
+    return args.study_handler(args)

@@ -1,0 +1,400 @@
+"""Stability catalogue: stiff and extreme ring-on-beam scenes, each with its expected outcome.
+
+Issue 5 item 2. Every scene either finishes (finite results, |energy balance error| within a
+stated tolerance of K0) or is refused at the boundary / stopped by a solver guard with a
+message naming the cause. The catalogue is data (`CATALOGUE`); `run_catalogue` runs it and
+``msfd bench stability`` prints the table recorded in docs/stability.md.
+
+Compilation: a program is compiled per mesh and per set of static `Settings` fields, so every
+scene shares `_BASE_SETTINGS` (with a fixed `max_steps`, which would otherwise be rounded from
+t_max / dt and differ between stiff and soft scenes); the long run (``stop_when_settled``
+False) and the paper-mesh bracket scenes are the only extra programs.
+
+float32: the package turns float64 on at import (``jax_enable_x64``), which also overrides a
+``JAX_ENABLE_X64=0`` set before the import. The only way to get single precision is to turn
+x64 off *after* importing; the ``float32`` scene does that in a fresh process (the flag is
+global) and reports what happens.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+from ._outputs import diagnose
+from ._params import CollisionParams, Mesh
+from ._scene import Scene, ring_on_beam
+from ._simulate import RESULT_NAMES, Settings, simulate
+
+PAPER_MESH = dict(ring_segments=15, beam_contact_segments=20, beam_outer_segments=5)
+QUICK_MESH = dict(ring_segments=6, beam_contact_segments=8, beam_outer_segments=2)
+# Static fields shared by every scene (one compiled program per mesh). 2**17 diffrax steps of
+# 8 Verlet steps cover t_max = 10 at the smallest step of the catalogue (contact x100, paper
+# mesh: dt ~ 5e-5), so no finishing scene is cut by the bound.
+_BASE_SETTINGS = dict(history_points=101, shape_times=(), max_steps=2**17)
+_QUICK_T_MAX = 3.0  # quick form: long enough to settle the showcase on the coarse mesh (~2.3)
+
+FINISHES, REFUSED, STOPPED = "finishes", "refused", "stopped"
+
+
+@dataclasses.dataclass(frozen=True)
+class StabilityScene:
+    """One catalogue entry: what to run and what must happen.
+
+    **Arguments:**
+    - `name`, `description`: row label and what the scene probes.
+    - `params`, `mesh`, `settings`: overrides of `CollisionParams()`, the catalogue mesh
+      (paper's, or the coarse one in quick form) and `_BASE_SETTINGS`.
+    - `contact_stiffness`: factor on the ring-beam contact springs (the stability step adapts:
+      `critical_step` reads the scene).
+    - `yield_scale`: factor on m_p, n_p of both chains and on the contact yield force.
+    - `step_factor`: dt = step_factor x critical_step(scene) (sets `safety`).
+    - `expect`: "finishes", "refused" (an exception at the boundary) or "stopped" (a guard).
+    - `tolerance`: allowed |energy balance error| / K0 when the scene finishes.
+    - `cause`: text the message must contain when refused or stopped.
+    - `max_kinetic`: a finishing run must end with at most this kinetic fraction of K0
+      (for scenes where ending with the block still moving would be a wrong answer).
+    - `float32`: run in a fresh process with x64 turned off after import.
+    - `fixed_mesh`: keep `mesh` in quick form too (scenes whose point is the paper mesh).
+    """
+
+    name: str
+    description: str
+    params: dict = dataclasses.field(default_factory=dict)
+    mesh: dict = dataclasses.field(default_factory=dict)
+    settings: dict = dataclasses.field(default_factory=dict)
+    contact_stiffness: float = 1.0
+    yield_scale: float = 1.0
+    step_factor: float | None = None
+    expect: str = FINISHES
+    tolerance: float = 1e-3
+    cause: str = ""
+    max_kinetic: float | None = None
+    float32: bool = False
+    fixed_mesh: bool = False
+
+
+_S = StabilityScene
+_LIMIT = "the computed stability limit"  # what diagnose() says when dt is past dt_crit
+_NO_SETTLE = {"stop_when_settled": False}  # shares the long run's program
+_SLOW = {"velocity": 0.05, "mass_ratio": 1000.0}  # K0 = 1.25 M_pr, the showcase's order
+CATALOGUE: tuple[StabilityScene, ...] = (
+    _S("showcase", "the paper's Fig. 13 collision (reference row)"),
+    _S("modulus_100", "E/Y = 100: soft material, large elastic strains", {"modulus_ratio": 100.0}),
+    _S("modulus_2000", "E/Y = 2000: stiff material, small stable step", {"modulus_ratio": 2000.0}),
+    _S("thin_beam", "h_b/h_r = 0.1: beam far thinner than the ring", {"thickness_ratio": 0.1}),
+    _S("thick_beam", "h_b/h_r = 10: nearly rigid beam", {"thickness_ratio": 10.0}),
+    _S("slow_impact", "v0 = 0.05: barely plastic impact", {"velocity": 0.05}),
+    _S("fast_impact", "v0 = 5: six times the showcase speed", {"velocity": 5.0}),
+    _S("light_block", "g = 0.1: block lighter than the ring", {"mass_ratio": 0.1}),
+    _S("heavy_block", "g = 1000: block 100x the showcase", {"mass_ratio": 1000.0}),
+    _S("soft_contact", "contact springs x 0.01", contact_stiffness=0.01),
+    _S("stiff_contact", "contact springs x 100 (step shrinks ~10x)", contact_stiffness=100.0),
+    _S(
+        "elastic_only",
+        "yield x 1e12 everywhere: purely elastic (nothing dissipates: runs to t_max)",
+        yield_scale=1e12,
+        settings=_NO_SETTLE,
+    ),
+    _S(
+        "quasi_static",
+        "slow loading: v0 = 0.05 with g = 1000, run to tau = 50 without the settling stop",
+        _SLOW,
+        settings={"t_max": 50.0, **_NO_SETTLE},
+    ),
+    _S(
+        "quasi_static_settle_rule",
+        "the same slow loading with the default settling stop: must not stop while the block "
+        "still carries its energy (kinetic <= 0.05 K0)",
+        _SLOW,
+        settings={"t_max": 50.0},
+        max_kinetic=0.05,
+    ),
+    _S(
+        "long_run",
+        "tau = 50 without the settling stop (coarse mesh): drift of the energy balance",
+        mesh=QUICK_MESH,
+        settings={"t_max": 50.0, **_NO_SETTLE},
+        fixed_mesh=True,
+    ),
+    _S("float32", "x64 turned off after import (fresh process, coarse mesh)", float32=True),
+    _S(
+        "velocity_out_of_range",
+        "v0 = 2000 is outside the allowed (0, 1000]",
+        {"velocity": 2000.0},
+        expect=REFUSED,
+        cause="velocity",
+    ),
+    _S(
+        "under_limit",
+        "dt = 0.9 dt_crit (paper mesh)",
+        mesh=PAPER_MESH,
+        step_factor=0.9,
+        fixed_mesh=True,
+    ),
+    _S(
+        "at_limit",
+        "dt = 1.0 dt_crit (paper mesh)",
+        mesh=PAPER_MESH,
+        step_factor=1.0,
+        fixed_mesh=True,
+    ),
+    _S(
+        "over_limit_1.1",
+        "dt = 1.1 dt_crit (paper mesh)",
+        mesh=PAPER_MESH,
+        step_factor=1.1,
+        expect=STOPPED,
+        cause=_LIMIT,
+        fixed_mesh=True,
+    ),
+    _S(
+        "over_limit_1.2",
+        "dt = 1.2 dt_crit (paper mesh)",
+        mesh=PAPER_MESH,
+        step_factor=1.2,
+        expect=STOPPED,
+        cause=_LIMIT,
+        fixed_mesh=True,
+    ),
+    _S(
+        "coarse_1.2",
+        "dt = 1.2 dt_crit (coarse mesh: the estimate is conservative)",
+        mesh=QUICK_MESH,
+        step_factor=1.2,
+        fixed_mesh=True,
+    ),
+    _S(
+        "coarse_1.5",
+        "dt = 1.5 dt_crit (coarse mesh)",
+        mesh=QUICK_MESH,
+        step_factor=1.5,
+        expect=STOPPED,
+        cause=_LIMIT,
+        fixed_mesh=True,
+    ),
+)
+BY_NAME = {s.name: s for s in CATALOGUE}
+
+
+def scale_contact_stiffness(scene: Scene, factor: float) -> Scene:
+    """The scene with its first contact's springs scaled by `factor`."""
+    return eqx.tree_at(
+        lambda s: s.contacts[0].stiffness, scene, scene.contacts[0].stiffness * factor
+    )
+
+
+def scale_yield(scene: Scene, factor: float) -> Scene:
+    """The scene with every yield value (m_p, n_p, contact yield force) scaled by `factor`."""
+    for i in range(len(scene.chains)):
+        section = scene.chains[i].section
+        scene = eqx.tree_at(
+            lambda s, i=i: (s.chains[i].section.plastic_moment, s.chains[i].section.plastic_axial),
+            scene,
+            (section.plastic_moment * factor, section.plastic_axial * factor),
+        )
+    return eqx.tree_at(
+        lambda s: s.contacts[0].yield_force, scene, scene.contacts[0].yield_force * factor
+    )
+
+
+def build(entry: StabilityScene, quick: bool = False) -> tuple[Scene, Settings]:
+    """The scene and settings of one entry (raises what the public constructors raise)."""
+    mesh_fields = QUICK_MESH if quick else PAPER_MESH
+    if entry.mesh and (entry.fixed_mesh or not quick):
+        mesh_fields = entry.mesh
+    scene = ring_on_beam(CollisionParams(**entry.params), Mesh(**mesh_fields))
+    if entry.contact_stiffness != 1.0:
+        scene = scale_contact_stiffness(scene, entry.contact_stiffness)
+    if entry.yield_scale != 1.0:
+        scene = scale_yield(scene, entry.yield_scale)
+    fields = {**_BASE_SETTINGS, **entry.settings}
+    if quick and "t_max" not in entry.settings:
+        fields["t_max"] = _QUICK_T_MAX
+    if entry.step_factor is not None:
+        # dt = safety x critical_step(scene) exactly; through `safety` rather than `dt`, so
+        # that these scenes share the compiled program of the others (dt=None is static)
+        fields["safety"] = entry.step_factor
+    return scene, Settings(**fields)
+
+
+def run_scene(entry: StabilityScene, quick: bool = False) -> dict[str, Any]:
+    """Run one entry; the row: result, t_end, steps, energy error, wall time, message."""
+    if entry.float32:
+        return _run_float32(entry, quick)
+    start = time.perf_counter()
+    try:
+        scene, settings = build(entry, quick)
+    except (ValueError, TypeError) as error:
+        return _row(entry, REFUSED, message=str(error), wall=time.perf_counter() - start)
+    sol = jax.block_until_ready(simulate(scene, settings))
+    wall = time.perf_counter() - start
+    return _row(
+        entry,
+        RESULT_NAMES[int(sol.result)],
+        t_end=float(sol.t_end),
+        steps=int(sol.steps),
+        error=float(sol.energy_balance_error),
+        dt_ratio=float(sol.dt / sol.dt_critical),
+        wall=wall,
+        message=diagnose(sol, scene),
+        finite=_finite(sol),
+        kinetic=float(jnp.sum(sol.kinetic) / sol.k0),
+    )
+
+
+def _finite(sol) -> bool:
+    # history samples after t_end are diffrax's fill value (inf) by design, so only the
+    # samples up to the end and the final state are checked
+    kept = sol.ts <= sol.t_end
+    history = [a[kept] for a in jax.tree_util.tree_leaves(sol.history)]
+    leaves = jax.tree_util.tree_leaves((sol.final, sol.energy_balance_error, history))
+    return all(bool(jnp.all(jnp.isfinite(a))) for a in leaves)
+
+
+def _row(
+    entry,
+    result,
+    *,
+    t_end=math.nan,
+    steps=0,
+    error=math.nan,
+    dt_ratio=math.nan,
+    wall=math.nan,
+    message="",
+    finite=False,
+    kinetic=math.nan,
+    dtype="float64",
+) -> dict[str, Any]:
+    row = dict(
+        name=entry.name,
+        description=entry.description,
+        result=result,
+        t_end=t_end,
+        steps=steps,
+        energy_balance_error=error,
+        kinetic_fraction=kinetic,
+        dt_over_dt_crit=dt_ratio,
+        wall_time_s=wall,
+        message=message,
+        finite=finite,
+        dtype=dtype,
+        expect=entry.expect,
+        tolerance=entry.tolerance if entry.expect == FINISHES else None,
+        cause=entry.cause,
+        max_kinetic=entry.max_kinetic,
+    )
+    row["verdict"] = verdict(row)
+    return row
+
+
+def verdict(row: dict[str, Any]) -> str:
+    """ "as expected" or what went wrong, comparing a row with its entry's expectation."""
+    result, expect = row["result"], row["expect"]
+    if expect == REFUSED:
+        ok = result == REFUSED and row["cause"] in row["message"]
+    elif expect == STOPPED:
+        ok = result in (RESULT_NAMES[2], RESULT_NAMES[3]) and row["cause"] in row["message"]
+    else:
+        ok = (
+            result in (RESULT_NAMES[0], RESULT_NAMES[1])
+            and row["finite"]
+            and abs(row["energy_balance_error"]) <= row["tolerance"]
+            and (row["max_kinetic"] is None or row["kinetic_fraction"] <= row["max_kinetic"])
+        )
+    return "as expected" if ok else f"UNEXPECTED (expected: {expect})"
+
+
+def _run_float32(entry: StabilityScene, quick: bool) -> dict[str, Any]:
+    """Run the entry in a fresh process with x64 turned off after `import msfd_jax`."""
+    code = (
+        "import json, sys, warnings; warnings.simplefilter('ignore');"
+        "import jax, msfd_jax; jax.config.update('jax_enable_x64', False);"
+        "from msfd_jax import _stability as st;"
+        f"print(json.dumps(st._float32_child({entry.name!r}, {quick!r})))"
+    )
+    start = time.perf_counter()
+    env = {k: v for k, v in os.environ.items() if k != "JAX_ENABLE_X64"}
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=900
+    )
+    if done.returncode != 0:
+        tail = done.stderr.strip().splitlines()[-1:] or ["no output"]
+        return _row(entry, "crashed", message=tail[0], wall=time.perf_counter() - start)
+    row = json.loads(done.stdout.strip().splitlines()[-1])
+    row["wall_time_s"] = time.perf_counter() - start
+    return row
+
+
+def _float32_child(name: str, quick: bool) -> dict[str, Any]:
+    entry = dataclasses.replace(BY_NAME[name], float32=False, mesh=QUICK_MESH, fixed_mesh=True)
+    row = run_scene(entry, quick)
+    scene, _ = build(entry, quick)
+    row["dtype"] = str(scene.chains[0].reference.dtype)
+    row["name"] = name
+    return row
+
+
+def run_catalogue(
+    names: Sequence[str] | None = None,
+    quick: bool = False,
+    progress: Callable[[str], None] | None = None,
+) -> list[dict[str, Any]]:
+    """Run the catalogue (or the named entries) and return one row per scene.
+
+    **Arguments:**
+    - `names`: entries to run (default all, in catalogue order).
+    - `quick`: the coarse mesh and tau <= 3 (scenes whose point is their mesh keep it).
+    - `progress`: called with a line per scene (default: printed on stderr).
+    """
+    if progress is None:
+
+        def progress(line: str) -> None:
+            print(line, file=sys.stderr, flush=True)
+
+    unknown = [n for n in names or () if n not in BY_NAME]
+    if unknown:
+        raise ValueError(f"unknown scene(s) {unknown}; known: {', '.join(BY_NAME)}")
+    entries = [BY_NAME[n] for n in names] if names else list(CATALOGUE)
+    rows = []
+    for i, entry in enumerate(entries, 1):
+        progress(f"[{i}/{len(entries)}] {entry.name}: {entry.description} ...")
+        row = run_scene(entry, quick)
+        progress(
+            f"[{i}/{len(entries)}] {entry.name}: {row['result']} at tau = {row['t_end']:.4g}, "
+            f"error {row['energy_balance_error']:+.2e} K0, {row['wall_time_s']:.1f} s; "
+            f"{row['verdict']}"
+        )
+        rows.append(row)
+    return rows
+
+
+def markdown_table(rows: Sequence[dict[str, Any]]) -> str:
+    """The rows as the markdown table recorded in docs/stability.md."""
+    head = (
+        "| scene | what | result | tau end | steps | dt/dt_crit | energy error / K0 "
+        "| tolerance | K end / K0 | wall s | verdict | message |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|"
+    )
+    lines = [head]
+    for r in rows:
+        tol = "" if r["tolerance"] is None else f"{r['tolerance']:.0e}"
+        what = r["description"] + ("" if r["dtype"] == "float64" else f" [{r['dtype']}]")
+        lines.append(
+            f"| {r['name']} | {what} | {r['result']} | {r['t_end']:.4g} | {r['steps']} "
+            f"| {r['dt_over_dt_crit']:.2f} | {r['energy_balance_error']:+.2e} | {tol} "
+            f"| {r['kinetic_fraction']:.3g} "
+            f"| {r['wall_time_s']:.1f} | {r['verdict']} | {r['message'].replace('|', '/')} |"
+        )
+    return "\n".join(lines)
