@@ -1,0 +1,141 @@
+"""``msfd tune``: find the beam thickness (and more) that gives a target energy split.
+
+Registered in `msfd_jax.cli.COMMANDS` through a lazy import (msfd_jax never imports this
+package at module import). The collision, mesh and numerics options are `msfd run`'s.
+
+Exit codes: 0 target met by the sharp model, 2 bad input, 3 a failed solve, 4 target not met
+(``unreachable`` within the bounds, or not converged); the JSON says which.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import msfd_jax as m
+from msfd_jax import cli
+
+from ._design import DEFAULT_BOUNDS, Design, default_box
+from ._gradient import MODES
+from ._objective import ShareAtLeast, ShareAtMost, TargetShare, objective
+from ._problem import make_problem
+from ._tune import DEFAULT_STAGES, Stage, tune
+
+EXIT_NOT_MET = 4
+
+# option -> (term, structure)
+_TERMS = {
+    "target_beam_share": (TargetShare, "beam"),
+    "target_ring_share": (TargetShare, "ring"),
+    "max_beam_share": (ShareAtMost, "beam"),
+    "max_ring_share": (ShareAtMost, "ring"),
+    "min_beam_share": (ShareAtLeast, "beam"),
+    "min_ring_share": (ShareAtLeast, "ring"),
+}
+
+
+def _pair(text: str) -> tuple[float, float]:
+    try:
+        low, high = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected LOW,HIGH, got {text!r}") from None
+    return low, high
+
+
+def add_tune_arguments(parser: argparse.ArgumentParser) -> None:
+    cli.add_collision_arguments(parser)
+    cli.add_numerics_arguments(parser)
+    goal = parser.add_argument_group(
+        "targets (fractions of K0; beam = beam bending + axial, ring = ring bending + axial)"
+    )
+    for field in _TERMS:
+        flag = "--" + field.replace("_", "-")
+        goal.add_argument(flag, type=float, dest=field, metavar="X")
+    tuning = parser.add_argument_group("tuning (the design starts at --thickness-ratio)")
+    low, high = DEFAULT_BOUNDS["thickness_ratio"]
+    tuning.add_argument(
+        "--thickness-bounds",
+        type=_pair,
+        default=(low, high),
+        metavar="LOW,HIGH",
+        help=f"bounds of h_b/h_r (default {low:g},{high:g})",
+    )
+    tuning.add_argument("--mode", choices=MODES, default="forward", help="gradient mode")
+    tuning.add_argument(
+        "--tolerance", type=float, default=0.01, help="K0 (default 0.01): the sharp model's miss"
+    )
+    tuning.add_argument(
+        "--iterations",
+        type=int,
+        default=DEFAULT_STAGES[0].iterations,
+        help="iterations per annealing stage (default %(default)s)",
+    )
+    tuning.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    parser.add_argument("--json", action="store_true", help="print one JSON object, nothing else")
+
+
+def _objective(args: argparse.Namespace):
+    terms = [
+        term(structure, getattr(args, field))
+        for field, (term, structure) in _TERMS.items()
+        if getattr(args, field) is not None
+    ]
+    if not terms:
+        raise ValueError("give a target, e.g. --target-beam-share 0.6 (see --help)")
+    for term in terms:
+        value = float(getattr(term, "target", getattr(term, "limit", 0.0)))
+        if not 0.0 <= value <= 1.0:
+            raise ValueError(f"targets are fractions of K0 in [0, 1], got {value:g}")
+    if not (args.tolerance > 0 and args.iterations >= 1):
+        raise ValueError("--tolerance must be > 0 and --iterations >= 1")
+    return objective(*terms)
+
+
+def tune_command(args: argparse.Namespace) -> int:
+    params, _ = cli.checked(cli.collision_from_args, args)
+    mesh, settings = (
+        cli.checked(cli.mesh_from_args, args),
+        cli.checked(cli.settings_from_args, args),
+    )
+    cli.checked(m.validate, params, mesh)
+    goal = cli.checked(_objective, args)
+    design = cli.checked(Design, thickness_ratio=float(params.thickness_ratio))
+    box = cli.checked(default_box, design, thickness_ratio=args.thickness_bounds)
+    low, high = args.thickness_bounds  # start inside the box
+    design = Design(thickness_ratio=min(max(float(params.thickness_ratio), low), high))
+    if not args.no_cache:
+        cli.enable_compilation_cache()
+    stages = tuple(
+        Stage(s.yield_smoothing, s.contact_smoothing, args.iterations, s.learning_rate)
+        for s in DEFAULT_STAGES
+    )
+    if not args.json or not args.quiet:
+        cli._note("tuning; the first iteration compiles for a while...")
+    try:
+        problem = make_problem(params, mesh, settings, box)
+        result = tune(
+            design,
+            problem,
+            goal,
+            box=box,
+            stages=stages,
+            mode=args.mode,
+            tolerance=args.tolerance,
+            progress=None if args.quiet else cli._note,
+        )
+    except m.SimulationError as error:
+        cli._note(f"simulation failed: {error}")
+        return cli.EXIT_SOLVE
+    if args.json:
+        print(json.dumps(result.to_json()))
+    else:
+        print(report(result))
+    return cli.EXIT_OK if result.status == "converged" else EXIT_NOT_MET
+
+
+def report(result) -> str:
+    lines = [result.message, "", "sharp-model energy partition at the design (fractions of K0)"]
+    for key in m.FRACTION_KEYS:
+        lines.append(f"  {key:<13} {result.fractions[key]:8.4f}")
+    lines.append(f"iterations {result.iterations}, wall time {result.wall_time_s:.1f} s")
+    return "\n".join(lines)
