@@ -67,9 +67,18 @@ def measure(mesh_name: str, chunk: int, shard: bool, settings: m.Settings) -> di
         collisions_per_s=len(table) / wall,
         first_chunk_with_compile_s=compile_and_first,
         failed=int(table.failed.sum()),
+        status_counts={s: int(np.sum(table["status"] == s)) for s in np.unique(table["status"])},
+        failed_rows=[
+            {
+                k: table[k][i].item()
+                for k in ("thickness_ratio", "axial_constraint", "mass_ratio", "message")
+            }
+            for i in np.flatnonzero(table.failed)
+        ],
         mean_steps=float(np.mean(table["steps"])),
         max_steps_bound=settings.max_steps,
         verlet_steps_per_s=float(np.sum(table["steps"]) / wall),
+        load_average_1min=os.getloadavg()[0],  # other processes share the CPUs
     )
     print(json.dumps(record), flush=True)
     return record
