@@ -19,8 +19,6 @@ from pathlib import Path
 import msfd_jax as m
 
 from . import _cli_bench as _bench
-
-from . import _cli_bench as _bench
 from . import _cli_sweep as _sweep
 
 EXIT_OK, EXIT_USAGE, EXIT_SOLVE = 0, 2, 3
@@ -289,15 +287,27 @@ def report(collision: m.Collision, scales: m.Scales | None = None) -> str:
     return "\n".join(lines)
 
 
+def _add_tune(parser: argparse.ArgumentParser) -> None:
+    from optimise._cli import add_tune_arguments  # lazy: msfd_jax never imports optimise
+
+    add_tune_arguments(parser)
+
+
+def _tune(args: argparse.Namespace) -> int:
+    from optimise._cli import tune_command
+
+    return tune_command(args)
+
+
 COMMANDS: dict[str, tuple[str, Callable, Callable]] = {
     "run": ("simulate one collision (default: the paper's Fig. 13 showcase)", _add_run, _run),
-    "bench": ("recorded studies: msfd bench stability", _bench.add_bench_arguments, _bench.bench),
     "bench": ("recorded studies: msfd bench stability", _bench.add_bench_arguments, _bench.bench),
     "sweep": (
         "run a grid or list of collisions, batched (vmap)",
         _sweep.add_arguments,
         _sweep.handle,
     ),
+    "tune": ("tune the beam thickness to a target energy split", _add_tune, _tune),
 }
 
 
