@@ -97,6 +97,12 @@ CATALOGUE: tuple[StabilityScene, ...] = (
     _S("thick_beam", "h_b/h_r = 10: nearly rigid beam", {"thickness_ratio": 10.0}),
     _S("slow_impact", "v0 = 0.05: barely plastic impact", {"velocity": 0.05}),
     _S("fast_impact", "v0 = 5: six times the showcase speed", {"velocity": 5.0}),
+    _S(
+        "fast_impact_small_step",
+        "v0 = 5 at dt = 0.1 dt_crit: is the failure above a step-size one?",
+        {"velocity": 5.0},
+        step_factor=0.1,
+    ),
     _S("light_block", "g = 0.1: block lighter than the ring", {"mass_ratio": 0.1}),
     _S("heavy_block", "g = 1000: block 100x the showcase", {"mass_ratio": 1000.0}),
     _S("soft_contact", "contact springs x 0.01", contact_stiffness=0.01),
