@@ -219,6 +219,8 @@ def sweep(
     - `progress`: a progress bar on stderr.
     - `shard`: split each chunk across all JAX devices with `jax.shard_map` (each device runs
       its own stopping loop); `chunk_size` must then be a multiple of the device count.
+      Experimental: over CPU host devices (``--xla_force_host_platform_device_count=2``,
+      jax 0.10.2) it hung in jaxlib's batched LAPACK eigensolver (the stability limit).
 
     Raises ValueError/TypeError, before anything is compiled, for a bad value.
     """
