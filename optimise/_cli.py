@@ -86,6 +86,11 @@ def _objective(args: argparse.Namespace):
         value = float(getattr(term, "target", getattr(term, "limit", 0.0)))
         if not 0.0 <= value <= 1.0:
             raise ValueError(f"targets are fractions of K0 in [0, 1], got {value:g}")
+    if args.contact_smoothing or args.yield_smoothing:
+        raise ValueError(
+            "tune anneals its own smoothing (optimise.DEFAULT_STAGES) and judges the design on "
+            "the sharp model; drop --contact-smoothing / --yield-smoothing"
+        )
     if not (args.tolerance > 0 and args.iterations >= 1):
         raise ValueError("--tolerance must be > 0 and --iterations >= 1")
     return objective(*terms)
