@@ -40,6 +40,7 @@ class State(eqx.Module):
     drive_work: Float[Array, ""]
     last_dissipation: Float[Array, ""]
     dissipation_mark: Float[Array, ""]
+    last_contact: Float[Array, ""]
 
     @property
     def dissipated(self):
@@ -166,6 +167,7 @@ def initial_state(scene: Scene) -> State:
         z,
         z,
         z,
+        z,
     )
 
 
@@ -183,7 +185,8 @@ def verlet_step(scene: Scene, state: State, t1, dt, settle_tolerance) -> State:
     v_h = v_0 + dt/2 a_0;  x_1 = x_0 + dt v_h;  return-map at x_1;  v_1 = v_h + dt/2 a_1.
     Held degrees of freedom have zero acceleration and keep their (zero or driven) velocity.
     ``last_dissipation`` is moved to t1 whenever the dissipation has grown by more than
-    ``settle_tolerance`` since the last mark (the stopping rule, docs/model.md).
+    ``settle_tolerance`` since the last mark, and ``last_contact`` whenever a contact spring
+    carries force (the stopping rule, docs/model.md).
     """
     v_half = jax.tree_util.tree_map(lambda v, a: v + 0.5 * dt * a, state.v, state.a)
     xs = jax.tree_util.tree_map(lambda x, v: x + dt * v, state.x, v_half)
@@ -199,6 +202,7 @@ def verlet_step(scene: Scene, state: State, t1, dt, settle_tolerance) -> State:
     contact = state.contact + r.contact
     total = jnp.sum(bending) + jnp.sum(axial) + jnp.sum(contact)
     moved = total - state.dissipation_mark > settle_tolerance
+    touching = sum((jnp.any(f > 0) for f in r.contact_force), jnp.asarray(False))
     return State(
         xs,
         v1,
@@ -215,6 +219,7 @@ def verlet_step(scene: Scene, state: State, t1, dt, settle_tolerance) -> State:
         drive_work,
         jnp.where(moved, t1, state.last_dissipation),
         jnp.where(moved, total, state.dissipation_mark),
+        jnp.where(touching, t1, state.last_contact),
     )
 
 

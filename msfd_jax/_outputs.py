@@ -86,17 +86,24 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
             where.append(f"{c.name} node {int(np.argmax(bad))}")
     place = ", ".join(where) if where else "energy bookkeeping"
     ratio = dt / dt_crit
-    cause = (
-        f"the step dt = {dt:.3g} is {ratio:.2f} x the computed stability limit {dt_crit:.3g}"
-        if ratio > 0.95
-        else "an extreme parameter (very stiff contact, very thin section, or huge velocity)"
-    )
+    if ratio > 0.95:
+        cause = (
+            f"the step dt = {dt:.3g} is {ratio:.2f} x the computed stability limit {dt_crit:.3g}"
+        )
+        remedy = "lower Settings.safety (CLI --safety) or give a smaller dt"
+    else:
+        cause = (
+            f"not the step (dt = {ratio:.2f} x the stability limit): a deformation the mesh cannot "
+            "follow (a joint folding past 180 degrees, ring nodes slipping between beam nodes "
+            "or leaving the contact region) or an extreme parameter"
+        )
+        remedy = "refine the mesh (Mesh.refined), or lower the velocity; a smaller dt rarely helps"
     what = "became non-finite" if code == NON_FINITE else "broke its energy balance"
     err = float(sol.energy_balance_error) if code == ENERGY_BALANCE else float("nan")
     detail = f" (error {err:.3g} K0)" if code == ENERGY_BALANCE else ""
     return (
         f"the solve {what}{detail} at tau = {t:.4g} in the {place}; likely cause: {cause}; "
-        "remedy: lower Settings.safety (CLI --safety) or give a smaller dt"
+        f"remedy: {remedy}"
     )
 
 
@@ -160,6 +167,22 @@ def run(
     Raises `SimulationError` (with `diagnose`'s message) when the run went non-finite, broke
     its energy balance or hit the step bound, unless ``check=False``.
     """
+    for name, value, kind in (
+        ("params", params, CollisionParams),
+        ("mesh", mesh, Mesh),
+        ("settings", settings, Settings),
+    ):
+        if not isinstance(value, kind):
+            raise TypeError(f"{name} must be a msfd_jax.{kind.__name__}, got {value!r}")
+    for name, value in [(f.name, getattr(params, f.name)) for f in dataclasses.fields(params)] + [
+        ("contact_smoothing", contact_smoothing),
+        ("yield_smoothing", yield_smoothing),
+    ]:
+        if np.ndim(value) != 0:
+            raise ValueError(
+                f"{name} must be a single value: run() simulates one collision "
+                "(use msfd_jax.sweep or jax.vmap over simulate for many)"
+            )
     scene = ring_on_beam(
         params, mesh, contact_smoothing=contact_smoothing, yield_smoothing=yield_smoothing
     )

@@ -41,29 +41,33 @@ _DESCRIPTIONS = {
 }
 
 
+def _label(name: str) -> str:
+    return f"{name} ({_DESCRIPTIONS[name]})" if name in _DESCRIPTIONS else name
+
+
 def _check_value(name: str, value: Any, low: float, high: float, lo_in: bool, hi_in: bool):
     """Raise a ValueError naming `name` unless every element of `value` is in range."""
     if isinstance(value, jax.core.Tracer):
         return  # validated where it was concrete (the public entry points)
+    kind = np.asarray(value).dtype.kind if not isinstance(value, str) else "U"
+    if isinstance(value, bool) or kind not in "iuf":  # no strings, booleans, complex, objects
+        raise TypeError(
+            f"{_label(name)} must be a real number, got {type(value).__name__} {value!r}"
+        )
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         raise TypeError(
-            f"{name} ({_DESCRIPTIONS.get(name, name)}) must be a real number, got "
-            f"{type(value).__name__} {value!r}"
+            f"{_label(name)} must be a real number, got {type(value).__name__} {value!r}"
         ) from None
     lo_br, hi_br = ("[" if lo_in else "("), ("]" if hi_in else ")")
     allowed = f"allowed {lo_br}{low:g}, {high:g}{hi_br}"
     if not np.all(np.isfinite(arr)):
-        raise ValueError(
-            f"{name} ({_DESCRIPTIONS.get(name, name)}) must be finite, got {value!r}; {allowed}"
-        )
+        raise ValueError(f"{_label(name)} must be finite, got {value!r}; {allowed}")
     ok = ((arr >= low) if lo_in else (arr > low)) & ((arr <= high) if hi_in else (arr < high))
     if not np.all(ok):
         bad = arr[~ok].ravel()[0]
-        raise ValueError(
-            f"{name} ({_DESCRIPTIONS.get(name, name)}) = {bad:g} is out of range; {allowed}"
-        )
+        raise ValueError(f"{_label(name)} = {bad:g} is out of range; {allowed}")
 
 
 def _check_count(name: str, value: Any, minimum: int):
@@ -133,7 +137,17 @@ class CollisionParams(eqx.Module):
     def __check_init__(self):
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
-            if f.name == "axial_constraint" and isinstance(value, bool):
+            if f.name == "axial_constraint":
+                if isinstance(value, bool):
+                    continue
+                _check_value(f.name, value, *_RANGES[f.name])
+                if not isinstance(value, jax.core.Tracer) and not np.all(
+                    np.isin(np.asarray(value, float), (0.0, 1.0))
+                ):
+                    raise ValueError(
+                        f"axial_constraint ({_DESCRIPTIONS[f.name]}) must be 0 or 1 "
+                        f"(or a bool), got {value!r}"
+                    )
                 continue
             if f.name == "span_ratio":
                 continue  # checked against the mesh in `validate`

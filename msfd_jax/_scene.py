@@ -76,6 +76,13 @@ class Scene(eqx.Module):
         )
 
 
+def _check_types(params, mesh):
+    if not isinstance(params, CollisionParams):
+        raise TypeError(f"params must be a msfd_jax.CollisionParams, got {params!r}")
+    if not isinstance(mesh, Mesh):
+        raise TypeError(f"mesh must be a msfd_jax.Mesh, got {mesh!r}")
+
+
 def _smoothing(value, name):
     _check_value(name, value, 0.0, 1.0e3, True, True)
     return jnp.asarray(value, dtype=jnp.float64)
@@ -156,6 +163,7 @@ def ring_on_beam(
     At tau = 0 the surfaces just touch at S-O (gap (h_r + h_b)/(2R)); every ring node moves at
     v0 towards the beam (+y) and the beam is at rest (Eq. 24).
     """
+    _check_types(params, mesh)
     validate(params, mesh)
     return _ring_on_beam(
         params.as_arrays(),
@@ -196,6 +204,7 @@ def ring_on_plate(
     clamped), the apex S touches the plate at tau = 0. The reaction at G is the plate load p/2
     of the half model. Only the ring's half thickness is compressed (the plate is rigid).
     """
+    _check_types(params, mesh)
     _check_value("drive_velocity", drive_velocity, 0.0, 1.0e3, False, True)
     p = params.as_arrays()
     offset = 0.5 / p.slenderness
@@ -234,6 +243,7 @@ def beam_midspan_load(
 
     The reaction at O is half the central load p of the whole beam.
     """
+    _check_types(params, mesh)
     validate(params, mesh)
     _check_value("drive_velocity", drive_velocity, 0.0, 1.0e3, False, True)
     p = params.as_arrays()
