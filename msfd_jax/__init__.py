@@ -26,8 +26,11 @@ from ._scene import (  # noqa: E402
     ring_on_plate,
 )
 from ._simulate import RESULT_NAMES, Settings, Solution, simulate  # noqa: E402
+from ._sweep import SweepTable, sweep  # noqa: E402
 
 __all__ = [
+    "SweepTable",
+    "sweep",
     "FRACTION_KEYS",
     "Collision",
     "SimulationError",
