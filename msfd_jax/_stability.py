@@ -63,7 +63,8 @@ class StabilityScene:
     - `expect`: "finishes", "refused" (an exception at the boundary) or "stopped" (a guard).
     - `tolerance`: allowed |energy balance error| / K0 when the scene finishes.
     - `cause`: text the message must contain when refused or stopped.
-    - `max_kinetic`: a finishing run must end with at most this kinetic fraction of K0
+    - `max_kinetic`: a finishing run must end with at most this kinetic fraction of K0, unless
+      the structures are apart at the end (a rebound keeps its kinetic energy)
       (for scenes where ending with the block still moving would be a wrong answer).
     - `float32`: run in a fresh process with x64 turned off after import.
     - `fixed_mesh`: keep `mesh` in quick form too (scenes whose point is the paper mesh).
@@ -122,7 +123,7 @@ CATALOGUE: tuple[StabilityScene, ...] = (
     _S(
         "quasi_static_settle_rule",
         "the same slow loading with the default settling stop: must not stop while the block "
-        "still carries its energy (kinetic <= 0.05 K0)",
+        "still presses on the beam with its energy (kinetic <= 0.05 K0, or rebounded apart)",
         _SLOW,
         settings={"t_max": 50.0},
         max_kinetic=0.05,
@@ -257,6 +258,7 @@ def run_scene(entry: StabilityScene, quick: bool = False) -> dict[str, Any]:
         message=diagnose(sol, scene),
         finite=_finite(sol),
         kinetic=float(jnp.sum(sol.kinetic) / sol.k0),
+        separated=float(sol.t_end - sol.final.last_contact) > float(settings.settle_window),
     )
 
 
@@ -281,6 +283,7 @@ def _row(
     message="",
     finite=False,
     kinetic=math.nan,
+    separated=False,
     dtype="float64",
 ) -> dict[str, Any]:
     row = dict(
@@ -291,6 +294,7 @@ def _row(
         steps=steps,
         energy_balance_error=error,
         kinetic_fraction=kinetic,
+        separated=separated,
         dt_over_dt_crit=dt_ratio,
         wall_time_s=wall,
         message=message,
@@ -317,7 +321,12 @@ def verdict(row: dict[str, Any]) -> str:
             result in (RESULT_NAMES[0], RESULT_NAMES[1])
             and row["finite"]
             and abs(row["energy_balance_error"]) <= row["tolerance"]
-            and (row["max_kinetic"] is None or row["kinetic_fraction"] <= row["max_kinetic"])
+            # energy may be left only as a rebound: the structures apart when the run ends
+            and (
+                row["max_kinetic"] is None
+                or row["kinetic_fraction"] <= row["max_kinetic"]
+                or row.get("separated", False)
+            )
         )
     return "as expected" if ok else f"UNEXPECTED (expected: {expect})"
 
