@@ -92,12 +92,18 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
         )
         remedy = "lower Settings.safety (CLI --safety) or give a smaller dt"
     else:
-        cause = (
-            f"not the step (dt = {ratio:.2f} x the stability limit): a deformation the mesh cannot "
-            "follow (a joint folding past 180 degrees, ring nodes slipping between beam nodes "
+        collapse = _degenerate(sol, scene)
+        cause = f"not the step (dt = {ratio:.2f} x the stability limit): " + (
+            collapse
+            or "a deformation the mesh cannot follow (ring nodes slipping between beam nodes "
             "or leaving the contact region) or an extreme parameter"
         )
-        remedy = "refine the mesh (Mesh.refined), or lower the velocity; a smaller dt rarely helps"
+        remedy = (
+            "the impact is beyond what the discrete model represents: lower the velocity or "
+            "the mass; a smaller dt does not help"
+            if collapse
+            else "refine the mesh (Mesh.refined) or lower the velocity; a smaller dt rarely helps"
+        )
     what = "became non-finite" if code == NON_FINITE else "broke its energy balance"
     err = float(sol.energy_balance_error) if code == ENERGY_BALANCE else float("nan")
     detail = f" (error {err:.3g} K0)" if code == ENERGY_BALANCE else ""
@@ -105,6 +111,28 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
         f"the solve {what}{detail} at tau = {t:.4g} in the {place}; likely cause: {cause}; "
         f"remedy: {remedy}"
     )
+
+
+def _degenerate(sol: Solution, scene: Scene) -> str | None:
+    """Name a bar crushed towards zero length or a joint folded near 180 degrees, if any."""
+    for c, x in zip(scene.chains, sol.final.x, strict=True):
+        x = np.asarray(x)
+        if not np.isfinite(x).all():
+            continue
+        strain = np.asarray(c.axial_strain(x))
+        fold = np.abs(np.asarray(c.joint_angles(x) - c.joint_angles(c.reference)))
+        if strain.min() < -0.5:
+            i = int(np.argmin(strain))
+            return (
+                f"{c.name} bar {i} is crushed to {100 * (1 + strain[i]):.0f} % of its length "
+                "(axial strain {:.2f}); the discrete model cannot follow such a collapse".format(
+                    strain[i]
+                )
+            )
+        if fold.max() > 0.9 * np.pi:
+            k = int(np.argmax(fold))
+            return f"{c.name} joint at node {c.joint_nodes[k]} has folded by {fold[k]:.2f} rad"
+    return None
 
 
 @dataclasses.dataclass

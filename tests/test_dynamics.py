@@ -168,3 +168,10 @@ def test_short_run_outputs_have_the_documented_shapes():
     assert sol.history["contact_pairs"][0].shape == (SHORT.history_points, n_r, 9)
     assert sol.shapes[1].shape == (2, n_b, 2)
     assert sol.ts.shape == (SHORT.history_points,)
+
+
+def test_a_collapse_beyond_the_model_is_stopped_and_named(showcase):
+    """v0 = 5 (6x the paper's): a ring bar is crushed flat; the run stops and says so."""
+    with pytest.raises(m.SimulationError, match="crushed to .* of its length") as error:
+        m.run(m.CollisionParams(velocity=5.0))
+    assert "a smaller dt does not help" in str(error.value)
