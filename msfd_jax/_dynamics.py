@@ -103,12 +103,11 @@ def respond(scene: Scene, xs, rotation_p, strain_p, permanent_set) -> Response:
         axial.append(jnp.sum(l0 * d_ax))
         elastic = elastic + 0.5 * jnp.sum(weight * m**2 / stiffness)
         elastic = elastic + 0.5 * jnp.sum(l0 * n**2 / s.axial_modulus)
-    g_contacts, new_set, pair_forces, contact = [], [], [], []
+    g_contacts, new_set, contact = [], [], []
     for k, delta, ps in zip(scene.contacts, q_contacts, permanent_set, strict=True):
         f, ps1, d_c = contact_spring(delta, ps, k.stiffness, k.yield_force, scene.contact_smoothing)
         g_contacts.append(f)
         new_set.append(ps1)
-        pair_forces.append(f)
         contact.append(jnp.sum(d_c))
         elastic = elastic + jnp.sum(
             contact_energy(delta, ps1, k.stiffness, scene.contact_smoothing)
@@ -121,7 +120,7 @@ def respond(scene: Scene, xs, rotation_p, strain_p, permanent_set) -> Response:
         tuple(new_rot),
         tuple(new_strain),
         tuple(new_set),
-        tuple(pair_forces),
+        tuple(g_contacts),  # the pair forces are the contact generalized forces
         jnp.stack(bend),
         jnp.stack(axial),
         jnp.stack(contact) if contact else jnp.zeros(1),

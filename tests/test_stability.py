@@ -9,17 +9,21 @@ import pytest
 
 from msfd_jax import _stability as st
 
+FINISHING = (
+    "showcase",
+    "modulus_2000",
+    "thin_beam",
+    "stiff_contact",
+    "soft_contact",
+    "heavy_block",
+    "elastic_only",
+)
+
 
 @pytest.fixture(scope="module")
 def rows():
     names = (
-        "showcase",
-        "modulus_2000",
-        "thin_beam",
-        "stiff_contact",
-        "soft_contact",
-        "heavy_block",
-        "elastic_only",
+        *FINISHING,
         "velocity_out_of_range",
         "under_limit",
         "over_limit_1.1",
@@ -30,18 +34,7 @@ def rows():
     return {r["name"]: r for r in st.run_catalogue(names, quick=True, progress=lambda s: None)}
 
 
-@pytest.mark.parametrize(
-    "name",
-    [
-        "showcase",
-        "modulus_2000",
-        "thin_beam",
-        "stiff_contact",
-        "soft_contact",
-        "heavy_block",
-        "elastic_only",
-    ],
-)
+@pytest.mark.parametrize("name", FINISHING)
 def test_extreme_scene_finishes_within_its_energy_tolerance(rows, name):
     row = rows[name]
     assert row["result"] in ("settled", "time limit"), row["message"]
