@@ -71,6 +71,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     batch = parser.add_argument_group("batching")
     batch.add_argument("--chunk-size", type=int, default=DEFAULT_CHUNK, help="per compiled call")
     batch.add_argument("--shard", action="store_true", help="split chunks across JAX devices")
+    batch.add_argument(
+        "--host-devices",
+        type=int,
+        metavar="N",
+        help="with --shard on CPU: run as N host devices, one per core (sets XLA_FLAGS)",
+    )
     batch.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     out = parser.add_argument_group("output")
     out.add_argument("--csv", type=Path, metavar="PATH", help="write the table as CSV")
@@ -91,9 +97,29 @@ def grid_from_args(args: argparse.Namespace):
     return [{k: float(rows[k][i]) for k in rows.keys() if k in INPUTS} for i in range(len(rows))]
 
 
+def _use_host_devices(n: int, shard: bool) -> None:
+    """Ask XLA for `n` CPU devices; only possible before JAX has started its backends."""
+    import os
+
+    from jax._src import xla_bridge
+
+    from . import cli
+
+    if not shard:
+        raise cli.UsageError("--host-devices needs --shard (it only splits sharded chunks)")
+    if n < 1 or n > (os.cpu_count() or 1):
+        raise cli.UsageError(f"--host-devices must be in 1..{os.cpu_count()} (cores), got {n}")
+    if xla_bridge.backends_are_initialized():
+        raise cli.UsageError("--host-devices must be set before JAX starts (use XLA_FLAGS)")
+    flag = f"--xla_force_host_platform_device_count={n}"
+    os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {flag}".strip()
+
+
 def handle(args: argparse.Namespace) -> int:
     from . import cli
 
+    if args.host_devices is not None:
+        _use_host_devices(args.host_devices, args.shard)
     spec = cli.checked(grid_from_args, args)
     mesh = cli.checked(cli.mesh_from_args, args)
     settings = cli.checked(cli.settings_from_args, args)

@@ -169,9 +169,15 @@ def _energy_error(scene: Scene, y: State, k0):
     return (total - k0 - y.drive_work) / jnp.where(k0 > 0, k0, 1.0)
 
 
-def step_size(scene: Scene, settings: Settings):
-    """(dt, dt_crit): the step used and the computed stability limit (not differentiated)."""
-    dt_crit = jax.lax.stop_gradient(_critical_step(scene))
+def step_size(scene: Scene, settings: Settings, dt_critical=None):
+    """(dt, dt_crit): the step used and the stability limit (not differentiated).
+
+    `dt_critical`, when given, is the limit computed beforehand (a sweep computes every
+    collision's first, outside its sharded program); otherwise it is computed here.
+    """
+    if dt_critical is None:
+        dt_critical = _critical_step(scene)
+    dt_crit = jax.lax.stop_gradient(jnp.asarray(dt_critical, float))
     dt = dt_crit * settings.safety if settings.dt is None else jnp.asarray(settings.dt)
     return dt, dt_crit
 
@@ -189,10 +195,12 @@ def max_steps_for(scene: Scene, settings: Settings) -> int:
 
 
 @eqx.filter_jit
-def _simulate(scene: Scene, settings: Settings, max_steps: int, adjoint) -> Solution:
+def _simulate(
+    scene: Scene, settings: Settings, max_steps: int, adjoint, dt_critical=None
+) -> Solution:
     y0 = initial_state(scene)
     k0 = scene.initial_kinetic_energy
-    dt, dt_crit = step_size(scene, settings)
+    dt, dt_crit = step_size(scene, settings, dt_critical)
     tolerance = settings.settle_tolerance * k0
 
     def stop(t, y, args, **kwargs):
@@ -276,7 +284,11 @@ def _simulate(scene: Scene, settings: Settings, max_steps: int, adjoint) -> Solu
 
 
 def simulate(
-    scene: Scene, settings: Settings = Settings(), *, adjoint: diffrax.AbstractAdjoint | None = None
+    scene: Scene,
+    settings: Settings = Settings(),
+    *,
+    adjoint: diffrax.AbstractAdjoint | None = None,
+    dt_critical=None,
 ) -> Solution:
     """Run one scene (jit/vmap/grad-compatible; see `run` for the checked, user-facing form).
 
@@ -285,6 +297,8 @@ def simulate(
     - `settings`: how to integrate (`Settings`).
     - `adjoint`: how to differentiate: diffrax's ``RecursiveCheckpointAdjoint`` (default,
       reverse mode) or ``ForwardMode`` (for ``jax.jvp``, cheapest for few design variables).
+    - `dt_critical`: the scene's stability limit when already known (`critical_step(scene)`);
+      None computes it. Giving a wrong value gives a wrong step: it is not checked.
     """
     adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
     if not isinstance(settings.t_max, jax.core.Tracer):
@@ -295,4 +309,6 @@ def simulate(
     settings = jax.tree_util.tree_map(
         lambda v: jnp.asarray(v, float) if isinstance(v, float | int) else v, settings
     )
-    return _simulate(scene, settings, max_steps_for(scene, settings), adjoint)
+    if dt_critical is not None and settings.max_steps is None:
+        raise ValueError("with dt_critical given, give Settings(max_steps=...) too")
+    return _simulate(scene, settings, max_steps_for(scene, settings), adjoint, dt_critical)

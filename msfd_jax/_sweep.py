@@ -219,8 +219,9 @@ def sweep(
     - `progress`: a progress bar on stderr.
     - `shard`: split each chunk across all JAX devices with `jax.shard_map` (each device runs
       its own stopping loop); `chunk_size` must then be a multiple of the device count.
-      Experimental: over CPU host devices (``--xla_force_host_platform_device_count=2``,
-      jax 0.10.2) it hung in jaxlib's batched LAPACK eigensolver (the stability limit).
+      On CPU, start with ``XLA_FLAGS=--xla_force_host_platform_device_count=<cores>`` (the
+      CLI's ``--host-devices``) for one device per core. The stability limits are computed
+      before, outside the sharded program (jaxlib's batched LAPACK eigensolver hung inside it).
 
     Raises ValueError/TypeError, before anything is compiled, for a bad value.
     """
@@ -235,12 +236,15 @@ def sweep(
     chunks = [range(s, min(s + chunk_size, n)) for s in range(0, n, chunk_size)]
     bar = _Progress(n, enabled=progress)
     start = time.perf_counter()
+    # every stability limit first (a small vmapped program): one step bound for all chunks,
+    # and the sharded solver then needs no eigen-solve inside its devices' programs
+    bar.note("stability limits")
+    columns["_dt_critical"] = np.concatenate(
+        [_run_chunk(_critical_chunk, columns, c, chunk_size, mesh, smoothing) for c in chunks]
+    )
     if settings.max_steps is None:
-        bar.note("stability limits")
-        dt_crit = np.concatenate(
-            [_run_chunk(_critical_chunk, columns, c, chunk_size, mesh, smoothing) for c in chunks]
-        )
-        settings = dataclasses.replace(settings, max_steps=step_bound(dt_crit, settings))
+        bound = step_bound(columns["_dt_critical"], settings)
+        settings = dataclasses.replace(settings, max_steps=bound)
     bar.note("collisions")
     solve = _sharded_solver(devices) if devices else _solve_chunk
     parts = []
@@ -251,6 +255,7 @@ def sweep(
         bar.update(len(c))
     bar.close()
     out = {k: np.concatenate([p[k] for p in parts]) for k in OUTPUTS}
+    del columns["_dt_critical"]
     return SweepTable({**columns, **out}, grid, time.perf_counter() - start)
 
 
@@ -303,10 +308,17 @@ def _chunking(chunk_size: int, shard: bool):
 
 
 def _run_chunk(function, columns, rows: range, chunk_size: int, *args):
-    """Call `function` on one chunk padded (with its first row) to `chunk_size`; unpad."""
+    """Call `function` on one chunk padded (with its first row) to `chunk_size`; unpad.
+
+    `function` gets the chunk's CollisionParams, then its stability limits when `columns`
+    holds them (``"_dt_critical"``), then `args`.
+    """
     index = np.asarray(rows)
     padded = np.concatenate([index, np.full(chunk_size - len(index), index[0])])
-    params = CollisionParams(**{k: jnp.asarray(v[padded]) for k, v in columns.items()})
+    names = [f.name for f in dataclasses.fields(CollisionParams)]
+    params = CollisionParams(**{k: jnp.asarray(columns[k][padded]) for k in names})
+    if "_dt_critical" in columns:
+        args = (jnp.asarray(columns["_dt_critical"][padded]), *args)
     out = jax.device_get(function(params, *args))
     return jax.tree_util.tree_map(lambda a: np.asarray(a)[: len(index)], out)
 
@@ -319,10 +331,10 @@ def _critical_chunk(params: CollisionParams, mesh: Mesh, smoothing):
     return jax.vmap(one)(params)
 
 
-def _solve_one(p: CollisionParams, mesh: Mesh, smoothing, settings: Settings):
+def _solve_one(p: CollisionParams, dt_crit, mesh: Mesh, smoothing, settings: Settings):
     """One collision inside the vmap: its outputs and a solution stripped of histories."""
     scene = ring_on_beam(p, mesh, contact_smoothing=smoothing[0], yield_smoothing=smoothing[1])
-    solution = simulate(scene, settings)
+    solution = simulate(scene, settings, dt_critical=dt_crit)
     outputs = fractions(solution, scene)
     outputs["energy_balance_error"] = solution.energy_balance_error
     # what `diagnose` reads; histories and shapes are dropped so a chunk's output stays small
@@ -331,8 +343,8 @@ def _solve_one(p: CollisionParams, mesh: Mesh, smoothing, settings: Settings):
 
 
 @eqx.filter_jit
-def _solve_chunk(params: CollisionParams, mesh: Mesh, smoothing, settings: Settings):
-    return jax.vmap(lambda p: _solve_one(p, mesh, smoothing, settings))(params)
+def _solve_chunk(params: CollisionParams, dt_crit, mesh: Mesh, smoothing, settings: Settings):
+    return jax.vmap(lambda p, d: _solve_one(p, d, mesh, smoothing, settings))(params, dt_crit)
 
 
 _SHARDED: dict = {}
@@ -349,20 +361,20 @@ def _sharded_solver(devices):
         batch = PartitionSpec("batch")
 
         @eqx.filter_jit
-        def solve(params, mesh, smoothing, settings):
-            def local(p, smoothing, settings):
-                return jax.vmap(lambda q: _solve_one(q, mesh, smoothing, settings))(p)
+        def solve(params, dt_crit, mesh, smoothing, settings):
+            def local(p, d, smoothing, settings):
+                return jax.vmap(lambda q, e: _solve_one(q, e, mesh, smoothing, settings))(p, d)
 
             # numbers replicated on every device; the batch split; no cross-device loop
             dynamic, static = eqx.partition(settings, eqx.is_array)
             sharded = jax.shard_map(
-                lambda p, sm, dyn: local(p, sm, eqx.combine(dyn, static)),
+                lambda p, d, sm, dyn: local(p, d, sm, eqx.combine(dyn, static)),
                 mesh=device_mesh,
-                in_specs=(batch, PartitionSpec(), PartitionSpec()),
+                in_specs=(batch, batch, PartitionSpec(), PartitionSpec()),
                 out_specs=batch,
                 check_vma=False,
             )
-            return sharded(params, smoothing, dynamic)
+            return sharded(params, dt_crit, smoothing, dynamic)
 
         _SHARDED[key] = solve
     return _SHARDED[key]
