@@ -4,6 +4,7 @@ Imports `msfd_jax`; `msfd_jax` never imports this package (its CLI loads it lazi
 ``msfd tune``).
 """
 
+from ._conditions import Conditions
 from ._design import DEFAULT_BOUNDS, Box, Design, default_box, project
 from ._gradient import MODES, finite_difference, gradient
 from ._objective import (
@@ -20,6 +21,7 @@ from ._problem import Evaluation, Problem, evaluate, make_problem
 from ._tune import DEFAULT_STAGES, Stage, TuneResult, achievable_range, tune
 
 __all__ = [
+    "Conditions",
     "DEFAULT_STAGES",
     "Stage",
     "TuneResult",

@@ -3,6 +3,10 @@
 Registered in `msfd_jax.cli.COMMANDS` through a lazy import (msfd_jax never imports this
 package at module import). The collision, mesh and numerics options are `msfd run`'s.
 
+Robust tuning: ``--velocity-samples 0.6 0.82 1.0 --mass-samples 5 10 20`` tunes the *expected*
+split over every combination of the samples (9 collisions, vmapped in one program; with
+``--pair-samples`` sample i is (v_i, g_i) instead), and the JSON adds each sample's fractions.
+
 Exit codes: 0 target met by the sharp model, 2 bad input, 3 a failed solve, 4 target not met
 (``unreachable`` within the bounds, or not converged); the JSON says which.
 """
@@ -15,6 +19,7 @@ import json
 import msfd_jax as m
 from msfd_jax import cli
 
+from ._conditions import Conditions
 from ._design import DEFAULT_BOUNDS, Design, default_box
 from ._gradient import MODES
 from ._objective import ShareAtLeast, ShareAtMost, TargetShare, objective
@@ -71,6 +76,20 @@ def add_tune_arguments(parser: argparse.ArgumentParser) -> None:
         help="iterations per annealing stage (default %(default)s)",
     )
     tuning.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    robust = parser.add_argument_group(
+        "robust tuning (the targets apply to the expected split over impact samples)"
+    )
+    robust.add_argument(
+        "--velocity-samples", type=float, nargs="+", metavar="V0", help="samples of v0"
+    )
+    robust.add_argument(
+        "--mass-samples", type=float, nargs="+", metavar="G", help="samples of the mass ratio g"
+    )
+    robust.add_argument(
+        "--pair-samples",
+        action="store_true",
+        help="sample i is (v0_i, g_i) (equal counts) instead of every combination",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object, nothing else")
 
 
@@ -96,6 +115,17 @@ def _objective(args: argparse.Namespace):
     return objective(*terms)
 
 
+def _conditions(args: argparse.Namespace) -> Conditions | None:
+    velocity, mass = args.velocity_samples, args.mass_samples
+    if velocity is None and mass is None:
+        if args.pair_samples:
+            raise ValueError("--pair-samples needs --velocity-samples and --mass-samples")
+        return None
+    if args.pair_samples:
+        return Conditions(velocity=velocity, mass_ratio=mass)
+    return Conditions.grid(velocity=velocity, mass_ratio=mass)
+
+
 def tune_command(args: argparse.Namespace) -> int:
     params, _ = cli.checked(cli.collision_from_args, args)
     mesh, settings = (
@@ -104,6 +134,7 @@ def tune_command(args: argparse.Namespace) -> int:
     )
     cli.checked(m.validate, params, mesh)
     goal = cli.checked(_objective, args)
+    conditions = cli.checked(_conditions, args)
     design = cli.checked(Design, thickness_ratio=float(params.thickness_ratio))
     box = cli.checked(default_box, design, thickness_ratio=args.thickness_bounds)
     low, high = args.thickness_bounds  # start inside the box
@@ -117,7 +148,7 @@ def tune_command(args: argparse.Namespace) -> int:
     if not args.json or not args.quiet:
         cli._note("tuning; the first iteration compiles for a while...")
     try:
-        problem = make_problem(params, mesh, settings, box)
+        problem = make_problem(params, mesh, settings, box, conditions)
         result = tune(
             design,
             problem,
@@ -142,5 +173,14 @@ def report(result) -> str:
     lines = [result.message, "", "sharp-model energy partition at the design (fractions of K0)"]
     for key in m.FRACTION_KEYS:
         lines.append(f"  {key:<13} {result.fractions[key]:8.4f}")
+    if result.samples is not None:
+        lines[2] = "expected (mean over the impact samples) " + lines[2]
+        lines.append("per impact sample (sharp model): v0, g, beam share, ring share")
+        for c, f in zip(result.conditions, result.samples, strict=True):
+            v0 = c.get("velocity", "base")
+            g = c.get("mass_ratio", "base")
+            beam = f["beam_bending"] + f["beam_axial"]
+            ring = f["ring_bending"] + f["ring_axial"]
+            lines.append(f"  {v0!s:>6} {g!s:>6}  {beam:8.4f} {ring:8.4f}")
     lines.append(f"iterations {result.iterations}, wall time {result.wall_time_s:.1f} s")
     return "\n".join(lines)

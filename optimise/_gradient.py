@@ -45,19 +45,21 @@ def _forward(design, tangent, problem, yield_smoothing, contact_smoothing):
         adjoint = diffrax.ForwardMode()
         return _partition(d, problem, yield_smoothing, contact_smoothing, adjoint)
 
-    (fractions, result), (derivative, _) = jax.jvp(partition, (design,), (tangent,))
-    return fractions, derivative, result
+    fractions, derivative, (result, samples) = jax.jvp(
+        partition, (design,), (tangent,), has_aux=True
+    )
+    return fractions, derivative, result, samples
 
 
 @eqx.filter_jit
-def _reverse(design, cotangent, problem, yield_smoothing, contact_smoothing):
+def _reverse(design, cotangent, problem, yield_smoothing, contact_smoothing, checkpoints=None):
     def weighted(d):
-        adjoint = diffrax.RecursiveCheckpointAdjoint()
-        fractions, result = _partition(d, problem, yield_smoothing, contact_smoothing, adjoint)
-        return sum(cotangent[k] * fractions[k] for k in cotangent), (fractions, result)
+        adjoint = diffrax.RecursiveCheckpointAdjoint(checkpoints)
+        fractions, aux = _partition(d, problem, yield_smoothing, contact_smoothing, adjoint)
+        return sum(cotangent[k] * fractions[k] for k in cotangent), (fractions, aux)
 
-    (_, (fractions, result)), grad = jax.value_and_grad(weighted, has_aux=True)(design)
-    return fractions, grad, result
+    (_, (fractions, (result, samples))), grad = jax.value_and_grad(weighted, has_aux=True)(design)
+    return fractions, grad, result, samples
 
 
 def _basis(design: Design) -> list[Design]:
@@ -76,6 +78,7 @@ def gradient(
     yield_smoothing=0.0,
     contact_smoothing=0.0,
     partition_at: dict[str, Any] | None = None,
+    checkpoints: int | None = None,
 ) -> tuple[Evaluation, Design]:
     """The objective at `design` and its gradient with respect to every design variable.
 
@@ -88,6 +91,11 @@ def gradient(
     - `partition_at`: where to evaluate J and dJ/df (default: the differentiated model's
       partition). `tune` passes the sharp model's partition here, so that the value is the
       sharp model's and only df/dx comes from the smoothed one.
+    - `checkpoints`: reverse mode only, `diffrax.RecursiveCheckpointAdjoint`'s number of saved
+      states (None: diffrax's default, log2(max_steps); more trades memory for recomputation).
+
+    With conditions in `problem`, J is of the expected partition and its gradient that of
+    J(E[f]) (the samples are vmapped inside each differentiated solve).
 
     **Returns:** (`Evaluation` of the differentiated model, with ``value`` J at
     `partition_at` when given; the gradient dJ/dx as a `Design`).
@@ -98,20 +106,23 @@ def gradient(
     smoothing = arrays((yield_smoothing, contact_smoothing))
     if mode == "reverse":
         if partition_at is None:  # dJ/df at the smoothed partition: one primal solve first
-            partition_at, _ = _evaluate(design, problem, *smoothing)
+            partition_at, _, _ = _evaluate(design, problem, *smoothing)
         value, weights = objective_value_and_grad(objective, partition_at)
-        fractions, grad, result = _reverse(design, weights, problem, *smoothing)
-        return Evaluation(value, fractions, result), grad
+        fractions, grad, result, samples = _reverse(
+            design, weights, problem, *smoothing, checkpoints
+        )
+        return Evaluation(value, fractions, result, samples), grad
     columns = []
     for tangent in _basis(design):  # one tangent solve per variable, one compiled program
-        fractions, derivative, result = _forward(design, tangent, problem, *smoothing)
+        fractions, derivative, result, samples = _forward(design, tangent, problem, *smoothing)
         columns.append(derivative)
     value, weights = objective_value_and_grad(
         objective, fractions if partition_at is None else partition_at
     )
     slopes = [sum(weights[k] * column[k] for k in weights) for column in columns]
     leaves, treedef = jax.tree_util.tree_flatten(design)
-    return Evaluation(value, fractions, result), jax.tree_util.tree_unflatten(treedef, slopes)
+    grad = jax.tree_util.tree_unflatten(treedef, slopes)
+    return Evaluation(value, fractions, result, samples), grad
 
 
 def finite_difference(

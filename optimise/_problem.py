@@ -4,6 +4,10 @@
 designed fields are replaced), the mesh (static: one compiled program per mesh) and the
 `Settings` with every number an array and a fixed step bound `max_steps`, so that evaluating,
 differentiating and changing the smoothing never compiles a new program.
+
+With `Conditions` (samples of the impact velocity and mass), the problem's partition is the
+*expected* one over the samples, computed by `jax.vmap` over the sampled fields in one compiled
+program; the per-sample partitions come along (`Evaluation.samples`).
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ import jax.numpy as jnp
 import msfd_jax as m
 from msfd_jax._simulate import max_steps_for
 
+from ._conditions import Conditions, expectation
 from ._design import Box, Design
 
 FAILED = (2, 3, 4)  # non-finite, energy balance broken, max steps (msfd_jax.RESULT_NAMES)
@@ -42,11 +47,13 @@ class Problem(eqx.Module):
     - `params`: the collision (`msfd_jax.CollisionParams`, arrays); designed fields are replaced.
     - `mesh`: node counts (static).
     - `settings`: integration settings, numbers as arrays, `max_steps` set.
+    - `conditions`: samples of the impact conditions (`Conditions`), or None for one collision.
     """
 
     params: m.CollisionParams
     mesh: m.Mesh
     settings: m.Settings
+    conditions: Conditions | None = None
 
 
 def make_problem(
@@ -54,34 +61,43 @@ def make_problem(
     mesh: m.Mesh = m.Mesh(),
     settings: m.Settings = m.Settings(),
     box: Box | None = None,
+    conditions: Conditions | None = None,
 ) -> Problem:
     """A `Problem` whose step bound covers every design in `box` (its corners).
 
-    The stable step depends on the design (a thicker beam is stiffer), so `max_steps` is the
-    largest bound that `msfd_jax` would choose at any corner of the box, unless given.
+    The stable step depends on the design (a thicker beam is stiffer) and on the sample (the
+    block's mass), so `max_steps` is the largest bound that `msfd_jax` would choose at any
+    corner of the box and any sample of `conditions`, unless given.
     """
     kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
     settings = dataclasses.replace(settings, shape_times=kept)
     if settings.max_steps is None:
         corners = box.corners() if box is not None else []
-        scenes = [m.ring_on_beam(d.apply(params), mesh) for d in corners]
-        scenes = scenes or [m.ring_on_beam(params, mesh)]
-        steps = max(max_steps_for(scene, settings) for scene in scenes)
+        designs = [d.apply(params) for d in corners] or [params]
+        if conditions is not None:
+            designs = [conditions.apply(p, i) for p in designs for i in range(len(conditions))]
+        steps = max(max_steps_for(m.ring_on_beam(p, mesh), settings) for p in designs)
         settings = dataclasses.replace(settings, max_steps=steps)
-    return Problem(params.as_arrays(), mesh, arrays(settings))
+    elif conditions is not None:
+        for i in range(len(conditions)):
+            conditions.apply(params, i)  # validated
+    return Problem(params.as_arrays(), mesh, arrays(settings), conditions)
 
 
 class Evaluation(eqx.Module):
-    """The objective, the partition (fractions of K0) and the result code at one design."""
+    """The objective, the partition (fractions of K0) and the result code at one design.
+
+    With conditions, `fractions` is the expected partition, `result` the result code of each
+    sample and `samples` each sample's partition (arrays over the samples); else None.
+    """
 
     value: Any
     fractions: dict
     result: Any
+    samples: dict | None = None
 
 
-def _partition(design: Design, problem: Problem, yield_smoothing, contact_smoothing, adjoint):
-    """The partition (fractions of K0) and the result code of the collision at `design`."""
-    params = design.apply(problem.params)
+def _single(params, problem: Problem, yield_smoothing, contact_smoothing, adjoint):
     scene = m.ring_on_beam(
         params,
         problem.mesh,
@@ -92,10 +108,33 @@ def _partition(design: Design, problem: Problem, yield_smoothing, contact_smooth
     return m.fractions(solution, scene), solution.result
 
 
+def _partition(design: Design, problem: Problem, yield_smoothing, contact_smoothing, adjoint):
+    """(partition, (result code, per-sample partitions)) of the collision(s) at `design`.
+
+    One collision: the partition, its result code and None. With conditions: `jax.vmap` over
+    the sampled fields, the expected partition, the result code per sample and the samples.
+    """
+    params = design.apply(problem.params)
+    conditions = problem.conditions
+    if conditions is None:
+        fractions, result = _single(params, problem, yield_smoothing, contact_smoothing, adjoint)
+        return fractions, (result, None)
+
+    def sample(fields):
+        at = dataclasses.replace(params, **fields)
+        return _single(at, problem, yield_smoothing, contact_smoothing, adjoint)
+
+    samples, results = jax.vmap(sample)(conditions.fields())
+    return expectation(samples, conditions.weights), (results, samples)
+
+
 @eqx.filter_jit
 def _evaluate(design, problem, yield_smoothing, contact_smoothing):
     adjoint = diffrax.RecursiveCheckpointAdjoint()  # the primal program is the same either way
-    return _partition(design, problem, yield_smoothing, contact_smoothing, adjoint)
+    fractions, (result, samples) = _partition(
+        design, problem, yield_smoothing, contact_smoothing, adjoint
+    )
+    return fractions, result, samples
 
 
 @eqx.filter_jit
@@ -118,15 +157,18 @@ def evaluate(
 ) -> Evaluation:
     """The objective and partition at `design` (the sharp model unless smoothing is given)."""
     smoothing = arrays((yield_smoothing, contact_smoothing))
-    fractions, result = _evaluate(arrays(design), problem, *smoothing)
-    return Evaluation(arrays(objective)(fractions), fractions, result)
+    fractions, result, samples = _evaluate(arrays(design), problem, *smoothing)
+    return Evaluation(arrays(objective)(fractions), fractions, result, samples)
 
 
-def check(evaluation: Evaluation, design: Design) -> None:
-    """Raise `msfd_jax.SimulationError` if the run at `design` failed (never tune on garbage)."""
-    code = int(evaluation.result)
-    if code in FAILED:
-        raise m.SimulationError(
-            f"the collision at design {design.as_floats()} ended with '{m.RESULT_NAMES[code]}'; "
-            "lower Settings.safety, raise Settings.max_steps or narrow the bounds"
-        )
+def check(evaluation: Evaluation, design: Design, conditions: Conditions | None = None) -> None:
+    """Raise `msfd_jax.SimulationError` if a run at `design` failed (never tune on garbage)."""
+    codes = [int(c) for c in jnp.atleast_1d(evaluation.result)]
+    for i, code in enumerate(codes):
+        if code in FAILED:
+            where = "" if conditions is None else f" under impact conditions {conditions.rows()[i]}"
+            raise m.SimulationError(
+                f"the collision at design {design.as_floats()}{where} ended with "
+                f"'{m.RESULT_NAMES[code]}'; lower Settings.safety, raise Settings.max_steps "
+                "or narrow the bounds"
+            )

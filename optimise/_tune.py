@@ -17,6 +17,10 @@ Method (issue 4: "a path back to the sharp model"):
 4. Stop as soon as the sharp model meets every term within `tolerance` (K0). If it does not,
    and the design sits on a bound with the gradient pushing outwards, the target is reported
    ``unreachable`` together with the shares the sharp model gives at the corners of the box.
+
+Robust tuning: a `Problem` with `Conditions` (samples of v0 and g) makes every step above work
+on the *expected* partition over the samples (vmapped, one program); the result then also holds
+each sample's sharp partition at the found design and the spread of every share.
 """
 
 from __future__ import annotations
@@ -33,9 +37,10 @@ import optax
 
 import msfd_jax as m
 
+from ._conditions import spread
 from ._design import Box, Design, as_arrays, default_box, project
 from ._gradient import gradient
-from ._objective import Objective, share
+from ._objective import STRUCTURES, Objective, share
 from ._problem import Problem, arrays, check, evaluate
 
 
@@ -71,8 +76,23 @@ class TuneResult:
     design_history: list[dict[str, float]]
     achievable: dict[str, list[float]]  # [min, max] of each share over the box's corners
     wall_time_s: float
+    # robust tuning only (a problem with Conditions): `fractions` is then the expected split
+    conditions: list[dict[str, float]] | None = None  # each sample's v0, g and weight
+    samples: list[dict[str, float]] | None = None  # each sample's sharp partition at `design`
+    spread: dict[str, dict[str, float]] | None = None  # mean/std/min/max of each share
 
     def to_json(self) -> dict[str, Any]:
+        robust = {}
+        if self.samples is not None:
+            robust = {
+                "expected": True,
+                "conditions": self.conditions,
+                "samples": [
+                    {**c, "fractions": {k: f[k] for k in m.FRACTION_KEYS}}
+                    for c, f in zip(self.conditions, self.samples, strict=True)
+                ],
+                "spread": self.spread,
+            }
         return {
             **self.design.as_floats(),
             "fractions": {k: self.fractions[k] for k in m.FRACTION_KEYS},
@@ -87,6 +107,7 @@ class TuneResult:
             "design_history": self.design_history,
             "achievable": self.achievable,
             "wall_time_s": self.wall_time_s,
+            **robust,
         }
 
 
@@ -111,7 +132,7 @@ def achievable_range(problem: Problem, objective: Objective, box: Box) -> dict[s
     shares: dict[str, list[float]] = {s: [] for s in objective.structures()}
     for corner in box.corners():
         evaluation = evaluate(corner, problem, objective)
-        check(evaluation, corner)
+        check(evaluation, corner, problem.conditions)
         for s in shares:
             shares[s].append(float(share(evaluation.fractions, s)))
     return {s: [min(v), max(v)] for s, v in shares.items()}
@@ -153,13 +174,16 @@ def tune(
     - `tolerance`: how close (K0) the sharp partition must come to every term.
     - `sharp_correction`: take J and dJ/df from the sharp model (module docstring, step 2).
     - `progress`: called with one line per iteration (default: printed on stderr); None: quiet.
+
+    With `Conditions` in `problem` (robust tuning) the objective is met by the expected sharp
+    partition over the samples; `TuneResult.samples` and `.spread` say how each sample fares.
     """
     start = time.perf_counter()
     box = default_box(design) if box is None else box
     objective = arrays(objective)
     unit = project(box.to_unit(as_arrays(design)))
     width = box.width()
-    run = _Run(objective, tolerance, progress)
+    run = _Run(objective, tolerance, progress, problem)
     for stage in stages:
         optimiser = optax.adam(stage.learning_rate)
         state = optimiser.init(unit)
@@ -175,7 +199,7 @@ def tune(
             smoothed, grad = gradient(
                 point, problem, objective, mode=mode, partition_at=at, **smoothing
             )
-            check(smoothed, point)
+            check(smoothed, point, problem.conditions)
             grad_unit = jax.tree_util.tree_map(lambda g, w: g * w, grad, width)
             run.pushing_out = run.pushing_out + 1 if _on_bound_pushing_out(unit, grad_unit) else 0
             if run.pushing_out >= STALL:
@@ -206,8 +230,9 @@ STALL = 3
 class _Run:
     """Book-keeping of one tuning run: histories, the best design seen, progress lines."""
 
-    def __init__(self, objective: Objective, tolerance: float, progress):
+    def __init__(self, objective: Objective, tolerance: float, progress, problem: Problem):
         self.objective, self.tolerance, self.progress = objective, tolerance, progress
+        self.conditions = problem.conditions
         self.history: list[float] = []
         self.designs: list[dict[str, float]] = []
         self.terms_met: list[list[bool]] = []
@@ -216,7 +241,7 @@ class _Run:
         self.pushing_out = 0
 
     def record(self, point: Design, sharp, stage: Stage):
-        check(sharp, point)
+        check(sharp, point, self.conditions)
         value = float(sharp.value)
         violation = float(self.objective.violation(sharp.fractions))
         self.history.append(value)
@@ -254,6 +279,25 @@ def _finish(run: _Run, problem: Problem, box: Box, status: str, start: float) ->
             f"not converged: {objective.describe()} missed by {violation:.4f} K0 at {variables} "
             f"after {len(run.history)} evaluations; raise the stages' iterations"
         )
+    robust = {}
+    conditions = problem.conditions
+    if conditions is not None:
+        samples = {k: np.asarray(v) for k, v in sharp.samples.items()}
+        shares = {s: np.asarray(share(samples, s)) for s in (*STRUCTURES, *objective.structures())}
+        robust = dict(
+            conditions=conditions.rows(),
+            samples=[{k: float(v[i]) for k, v in samples.items()} for i in range(len(conditions))],
+            spread=spread({**samples, **shares}, conditions.weights),
+        )
+        message += (
+            f" (expected split over {len(conditions)} impact samples; "
+            + ", ".join(
+                f"{s} share per sample in [{robust['spread'][s]['min']:.4f}, "
+                f"{robust['spread'][s]['max']:.4f}], std {robust['spread'][s]['std']:.4f}"
+                for s in objective.structures()
+            )
+            + ")"
+        )
     return TuneResult(
         design=point,
         status=status,
@@ -265,6 +309,7 @@ def _finish(run: _Run, problem: Problem, box: Box, status: str, start: float) ->
         design_history=run.designs,
         achievable=achievable,
         wall_time_s=time.perf_counter() - start,
+        **robust,
     )
 
 
