@@ -19,6 +19,7 @@ from pathlib import Path
 import msfd_jax as m
 
 from . import _cli_bench as _bench
+from . import _cli_reproduce as _reproduce
 from . import _cli_sweep as _sweep
 
 EXIT_OK, EXIT_USAGE, EXIT_SOLVE = 0, 2, 3
@@ -305,6 +306,11 @@ COMMANDS: dict[str, tuple[str, Callable, Callable]] = {
         "run a grid or list of collisions, batched (vmap)",
         _sweep.add_arguments,
         _sweep.handle,
+    ),
+    "reproduce": (
+        "regenerate the paper's Sect. 4 figures and numbers",
+        _reproduce.add_arguments,
+        _reproduce.handle,
     ),
     "tune": ("tune the beam thickness to a target energy split", _add_tune, _tune),
 }
