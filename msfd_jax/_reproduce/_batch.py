@@ -35,19 +35,18 @@ def mesh(quick: bool) -> Mesh:
     return Mesh(6, 8, 2) if quick else Mesh()
 
 
-_BOUNDS: dict[Mesh, int] = {}
+_CRITICAL: dict[Mesh, float] = {}
 
 
-def max_steps(quick: bool) -> int:
-    """One step bound per mesh for t_max = 10 (`step_bound` of the thickest beam)."""
+def max_steps(quick: bool, settings: Settings = Settings()) -> int:
+    """One step bound per mesh and settings (`step_bound` of the thickest beam)."""
     key = mesh(quick)
-    if key not in _BOUNDS:
+    if key not in _CRITICAL:
         from .._dynamics import critical_step
 
         scene = ring_on_beam(CollisionParams(thickness_ratio=THICKEST), key)
-        dt_crit = float(eqx.filter_jit(critical_step)(scene))
-        _BOUNDS[key] = step_bound(np.asarray([dt_crit]), Settings())
-    return _BOUNDS[key]
+        _CRITICAL[key] = float(eqx.filter_jit(critical_step)(scene))
+    return step_bound(np.asarray([_CRITICAL[key]]), settings)
 
 
 def partition_settings(quick: bool) -> Settings:
@@ -63,14 +62,36 @@ def history_settings(quick: bool) -> Settings:
     )
 
 
+FINE_T_MAX = 0.5
+
+
+def fine_settings(quick: bool) -> Settings:
+    """The collision stage resolved: one Verlet step per diffrax step, tau <= 0.5 sampled every
+    1e-4 (paper mesh; below the step, 1.2-2.6e-4) or 5e-4 (quick)."""
+    base = Settings(
+        t_max=FINE_T_MAX, history_points=1001 if quick else 5001, shape_times=(), substeps=1
+    )
+    return dataclasses.replace(base, max_steps=max_steps(quick, base))
+
+
 def chunk(quick: bool) -> int:
     """Collisions per compiled call (one size for every figure of a mode: one program)."""
     return 8 if quick else 20
 
 
+_PARTITIONS: dict = {}
+
+
 def partition(rows: Sequence[Mapping[str, Any]], quick: bool) -> SweepTable:
-    """The final partition of each collision (`msfd_jax.sweep`, one compiled program)."""
-    return sweep(list(rows), mesh(quick), partition_settings(quick), chunk(quick), progress=False)
+    """The final partition of each collision (`msfd_jax.sweep`, one compiled program).
+
+    Remembered for the process: figures that share a case list (Fig. 16 and 23-24) run it once.
+    """
+    key = (quick, tuple(tuple(sorted(r.items())) for r in rows))
+    if key not in _PARTITIONS:
+        settings = partition_settings(quick)
+        _PARTITIONS[key] = sweep(list(rows), mesh(quick), settings, chunk(quick), progress=False)
+    return _PARTITIONS[key]
 
 
 HISTORY_CHUNK = 4
