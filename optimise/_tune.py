@@ -14,9 +14,15 @@ Method (issue 4: "a path back to the sharp model"):
    slope of the right sign. ``sharp_correction=False`` tunes the smoothed model itself.
 3. Adam (optax) steps in unit coordinates u = (x - low)/(high - low), projected back into
    [0, 1]; every stage restarts Adam with its own (smaller) learning rate.
-4. Stop as soon as the sharp model meets every term within `tolerance` (K0). If it does not,
-   and the design sits on a bound with the gradient pushing outwards, the target is reported
-   ``unreachable`` together with the shares the sharp model gives at the corners of the box.
+4. Stop as soon as the sharp model meets every term within `tolerance` (K0), or when the
+   design sits on a bound with the gradient pushing outwards (`STALL` iterations running).
+5. Safeguard (one design variable, one `TargetShare`): where the sharp share jumps (a change
+   of deformation mode) the smoothed slope can point the wrong way and the steps stall; if two
+   designs seen (iterates or box corners) put the sharp share on either side of the target,
+   regula falsi on the sharp model shrinks that bracket (`bracket` evaluations at most).
+6. Otherwise the target is reported ``unreachable`` if some term was met by no design seen and
+   (for a target) lies outside the range of the shares seen, box corners included, which the
+   message gives; else ``not converged`` (reachable by that evidence, not found).
 
 Robust tuning: a `Problem` with `Conditions` (samples of v0 and g) makes every step above work
 on the *expected* partition over the samples (vmapped, one program); the result then also holds
@@ -40,7 +46,7 @@ import msfd_jax as m
 from ._conditions import spread
 from ._design import Box, Design, as_arrays, default_box, project
 from ._gradient import gradient
-from ._objective import STRUCTURES, Objective, share
+from ._objective import STRUCTURES, Objective, TargetShare, share
 from ._problem import Problem, arrays, check, evaluate
 
 
@@ -162,6 +168,7 @@ def tune(
     tolerance: float = 0.01,
     sharp_correction: bool = True,
     progress: Callable[[str], None] | None = _stderr,
+    bracket: int = 12,
 ) -> TuneResult:
     """Find a design whose *sharp-model* partition meets `objective` within `tolerance` (K0).
 
@@ -174,6 +181,9 @@ def tune(
     - `tolerance`: how close (K0) the sharp partition must come to every term.
     - `sharp_correction`: take J and dJ/df from the sharp model (module docstring, step 2).
     - `progress`: called with one line per iteration (default: printed on stderr); None: quiet.
+    - `bracket`: sharp evaluations the bracketing safeguard may spend when the gradient steps
+      end without meeting the target (`_bracket`; one design variable, one `TargetShare`); 0:
+      none.
 
     With `Conditions` in `problem` (robust tuning) the objective is met by the expected sharp
     partition over the samples; `TuneResult.samples` and `.spread` say how each sample fares.
@@ -213,14 +223,54 @@ def tune(
         run.record(point, evaluate(point, problem, objective), stages[-1])
         if run.met:
             return _finish(run, problem, box, "converged", start)
-    # unreachable: held on a bound, or some term met by no design seen (box corners included)
-    corners_met = [
-        _terms_met(objective, evaluate(c, problem, objective).fractions, tolerance)
-        for c in box.corners()
-    ]
-    ever_met = np.any(np.array(run.terms_met + corners_met), axis=0)
-    unreachable = run.pushing_out >= STALL or not ever_met.all()
-    return _finish(run, problem, box, "unreachable" if unreachable else "not converged", start)
+    for corner in box.corners():  # the sharp model at the corners: brackets and reachability
+        evaluation = evaluate(corner, problem, objective)
+        check(evaluation, corner, problem.conditions)
+        run.seen.append((corner, _floats(evaluation.fractions)))
+    if bracket and _bracket(run, problem, objective, bracket):
+        return _finish(run, problem, box, "converged", start)
+    return _finish(run, problem, box, "not converged" if run.reachable() else "unreachable", start)
+
+
+def _bracket(run: _Run, problem: Problem, objective: Objective, budget: int) -> bool:
+    """Safeguard for one design variable and one `TargetShare`: regula falsi on the sharp model.
+
+    The gradient steps can stall where the sharp share jumps (a change of deformation mode) and
+    the smoothed model's slope there points the wrong way. If two designs seen (iterates or box
+    corners) have sharp shares on either side of the target, the Illinois variant of regula
+    falsi shrinks that bracket with sharp evaluations only, up to `budget` of them. Returns
+    True if the objective is then met.
+    """
+    targets = [t for t in objective.terms if isinstance(t, TargetShare)]
+    names = list(run.seen[0][0].variables()) if run.seen else []
+    if len(targets) != 1 or len(names) != 1:
+        return False
+    term, name = targets[0], names[0]
+    target = float(term.target)
+    points = sorted(
+        (float(d.variables()[name]), float(share(f, term.structure)) - target) for d, f in run.seen
+    )
+    pairs = [(p, q) for p, q in zip(points, points[1:], strict=False) if p[1] * q[1] < 0]
+    if not pairs:
+        return False
+    (a, fa), (b, fb) = min(pairs, key=lambda pq: abs(pq[0][1]) + abs(pq[1][1]))
+    stage = Stage(0.0, 0.0, budget, 0.0)
+    for _ in range(budget):
+        x = (a * fb - b * fa) / (fb - fa)
+        point = as_arrays(Design(**{name: x}))
+        sharp = run.record(point, evaluate(point, problem, objective), stage)
+        run.bracketed += 1
+        if run.met:
+            return True
+        fx = float(share(sharp.fractions, term.structure)) - target
+        if fx * fb < 0:
+            a, fa = b, fb
+        else:
+            fa = fa / 2  # Illinois: halve the retained end's value, so it does not stall
+        b, fb = x, fx
+        if abs(b - a) < 1e-9 * max(1.0, abs(a)):
+            break
+    return False
 
 
 # consecutive iterations on a bound with the gradient pointing out before tuning gives up
@@ -239,6 +289,22 @@ class _Run:
         self.best: tuple[float, Design, Any] | None = None
         self.met = False
         self.pushing_out = 0
+        self.seen: list[tuple[Design, dict[str, float]]] = []  # sharp partitions, corners too
+        self.bracketed = 0  # evaluations spent by the bracketing safeguard
+
+    def reachable(self) -> bool:
+        """Whether every term was met by some design seen, or (a target) lies between two."""
+        for i, term in enumerate(self.objective.terms):
+            if any(met[i] for met in self.terms_met):
+                continue
+            if any(float(term.violation(f)) <= self.tolerance for _, f in self.seen):
+                continue
+            if isinstance(term, TargetShare):
+                shares = [float(share(f, term.structure)) for _, f in self.seen]
+                if min(shares) <= float(term.target) <= max(shares):
+                    continue
+            return False
+        return True
 
     def record(self, point: Design, sharp, stage: Stage):
         check(sharp, point, self.conditions)
@@ -247,6 +313,7 @@ class _Run:
         self.history.append(value)
         self.designs.append(point.as_floats())
         self.terms_met.append(_terms_met(self.objective, sharp.fractions, self.tolerance))
+        self.seen.append((point, _floats(sharp.fractions)))
         self.met = violation <= self.tolerance
         if self.best is None or self.met or value < self.best[0]:
             self.best = (value, point, sharp)
@@ -268,6 +335,8 @@ def _finish(run: _Run, problem: Problem, box: Box, status: str, start: float) ->
             f"converged: {objective.describe()} met within {violation:.4f} <= {tolerance:g} K0 "
             f"by the sharp model at {variables}"
         )
+        if run.bracketed:
+            message += f" (after {run.bracketed} bracketing steps on the sharp model)"
     elif status == "unreachable":
         message = (
             f"unreachable within the bounds: {objective.describe()}; the best design seen "
@@ -277,7 +346,9 @@ def _finish(run: _Run, problem: Problem, box: Box, status: str, start: float) ->
     else:
         message = (
             f"not converged: {objective.describe()} missed by {violation:.4f} K0 at {variables} "
-            f"after {len(run.history)} evaluations; raise the stages' iterations"
+            f"after {len(run.history)} evaluations, although the shares seen ({ranges} at the "
+            "corners) suggest it is reachable (the sharp share may jump past it); try another "
+            "start or more iterations per stage"
         )
     robust = {}
     conditions = problem.conditions
