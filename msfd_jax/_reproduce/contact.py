@@ -121,7 +121,9 @@ def reproduce_fig15(quick: bool, figures_dir: Path) -> Reproduction:
             title=f"(a) {_label(row)}: tau <= {b.FINE_T_MAX:g}, {n_fine} separations",
             xlim=(0, b.FINE_T_MAX),
         )
-        ax_c.plot(w.ts, force_w, "-", color="0.6", lw=0.5, label="raw (every 1e-3)")
+        ax_c.plot(
+            w.ts, force_w, "-", color="0.6", lw=0.5, label=f"raw (every {w.ts[1] - w.ts[0]:.0e})"
+        )
         ax_c.plot(w.ts, avg_w, "r-", lw=1.5, label="moving average")
         ax_c.axvline(last_avg, color="b", ls="--", lw=1, label=f"real separation {last_avg:.2f}")
         ax_c.set(

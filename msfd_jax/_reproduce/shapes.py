@@ -84,12 +84,14 @@ def _shape_at(run: b.Run, t: float) -> list[np.ndarray] | None:
 
 
 def _draw(ax, chains: list[np.ndarray], title: str) -> None:
+    # drawn upside down (-y): the ring above the beam, moving down, as in the paper's figures
     for xy, colour in zip(chains, ("tab:red", "tab:blue"), strict=True):
+        xy = xy * np.array([1.0, -1.0])
         _mirrored(ax, xy, color=colour, lw=1.4)
         ax.plot(xy[:, 0], xy[:, 1], "o", color=colour, ms=2)
     ax.set_aspect("equal")
     ax.set_xlim(-1.6, 1.6)
-    ax.set_ylim(-1.3, 0.6)
+    ax.set_ylim(-0.6, 1.3)
     ax.set_title(title, fontsize=9)
     ax.grid(alpha=0.3)
 
@@ -121,14 +123,19 @@ def plot_fig13(run: b.Run) -> Figure:
     ax_pairs.grid(alpha=0.3)
     track = contact_track(run)
     on = track["ring_outer"] >= 0
-    for key, style in (
-        ("ring_inner", ("tab:red", "v")),
-        ("ring_outer", ("tab:red", "^")),
-        ("beam_inner", ("tab:blue", "v")),
-        ("beam_outer", ("tab:blue", "^")),
+    for key, style in (  # ring drawn 0.1 above, beam 0.1 below the index, to tell them apart
+        ("ring_inner", ("tab:red", "v", 0.1)),
+        ("ring_outer", ("tab:red", "^", 0.1)),
+        ("beam_inner", ("tab:blue", "v", -0.1)),
+        ("beam_outer", ("tab:blue", "^", -0.1)),
     ):
         ax_track.plot(
-            run.ts[on], track[key][on], style[1], color=style[0], ms=2, label=key.replace("_", " ")
+            run.ts[on],
+            track[key][on] + style[2],
+            style[1],
+            color=style[0],
+            ms=2,
+            label=key.replace("_", " "),
         )
     ax_track.set(
         xlabel=r"$\tau$",
@@ -140,7 +147,7 @@ def plot_fig13(run: b.Run) -> Figure:
     ax_track.grid(alpha=0.3)
     fig.suptitle(
         f"Fig. 13: h_b/h_r = {run.params['thickness_ratio']:g}, g = 10, v0 = 0.82, beam "
-        "axially constrained (ring red, beam blue, mirrored about x = 0)"
+        "axially constrained (ring red, beam blue, mirrored about x = 0; drawn with the ring above)"
     )
     return fig
 
