@@ -62,8 +62,14 @@ def make_problem(
     settings: m.Settings = m.Settings(),
     box: Box | None = None,
     conditions: Conditions | None = None,
+    lean: bool = True,
 ) -> Problem:
     """A `Problem` whose step bound covers every design in `box` (its corners).
+
+    `lean`: save no histories or shapes (``history_points=2``, ``shape_times=()``): tuning
+    reads only the final partition, and fewer saved outputs make the primal, and above all the
+    tangent and adjoint programs, cheaper (benchmarks/optimise_cost.py); the partition is the
+    same (saving interpolates, it never moves a step).
 
     The stable step depends on the design (a thicker beam is stiffer) and on the sample (the
     block's mass), so `max_steps` is the largest bound that `msfd_jax` would choose at any
@@ -71,6 +77,8 @@ def make_problem(
     """
     kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
     settings = dataclasses.replace(settings, shape_times=kept)
+    if lean:
+        settings = dataclasses.replace(settings, history_points=2, shape_times=())
     if settings.max_steps is None:
         corners = box.corners() if box is not None else []
         designs = [d.apply(params) for d in corners] or [params]

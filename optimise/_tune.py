@@ -82,6 +82,7 @@ class TuneResult:
     design_history: list[dict[str, float]]
     achievable: dict[str, list[float]]  # [min, max] of each share over the box's corners
     wall_time_s: float
+    bracketing_steps: int = 0  # sharp evaluations spent by the bracketing safeguard
     # robust tuning only (a problem with Conditions): `fractions` is then the expected split
     conditions: list[dict[str, float]] | None = None  # each sample's v0, g and weight
     samples: list[dict[str, float]] | None = None  # each sample's sharp partition at `design`
@@ -113,6 +114,7 @@ class TuneResult:
             "design_history": self.design_history,
             "achievable": self.achievable,
             "wall_time_s": self.wall_time_s,
+            "bracketing_steps": self.bracketing_steps,
             **robust,
         }
 
@@ -380,6 +382,7 @@ def _finish(run: _Run, problem: Problem, box: Box, status: str, start: float) ->
         design_history=run.designs,
         achievable=achievable,
         wall_time_s=time.perf_counter() - start,
+        bracketing_steps=run.bracketed,
         **robust,
     )
 

@@ -1,11 +1,14 @@
-"""optimise (issue 4): gradients vs finite differences, forward vs reverse, tuning, CLI.
+"""optimise (issue 4): gradients vs finite differences, forward vs reverse, tuning, robust
+tuning over impact samples, CLI.
 
 Every test uses one fixed configuration (the small mesh, a short run, one fixed dt), so the
-session compiles one primal, one forward-mode and one reverse-mode program. The fixed dt
+session compiles one primal, one forward-mode and one reverse-mode program, and for the robust
+tests one vmapped primal and one vmapped forward-mode program (two paired samples). The fixed dt
 matters for the finite differences: msfd_jax holds the step out of the derivative, and a
 design-dependent dt would add its own O(dt^2) variation to f(x + h) - f(x - h).
 """
 
+import dataclasses
 import json
 
 import jax.numpy as jnp
@@ -21,6 +24,8 @@ DT = 2.0e-4  # below 0.5 x the stability limit at the stiffest design of the box
 SETTINGS = m.Settings(t_max=1.5, dt=DT, history_points=31, shape_times=(0.5,))
 SMOOTH = dict(yield_smoothing=0.05, contact_smoothing=0.01)
 GOAL = o.objective(o.TargetShare("beam", 0.6), o.ShareAtMost("ring", 0.3, weight=2.0))
+# two impact conditions, paired: a slow light block and a fast heavy one
+SAMPLES = dict(velocity=[0.7, 1.0], mass_ratio=[5.0, 20.0])
 
 
 @pytest.fixture(scope="module")
@@ -29,6 +34,13 @@ def problem():
     stiff = m.ring_on_beam(m.CollisionParams(thickness_ratio=5.0), SMALL_MESH)
     assert DT < 0.5 * float(m.critical_step(stiff))
     return o.make_problem(m.CollisionParams(), SMALL_MESH, SETTINGS, box)
+
+
+@pytest.fixture(scope="module")
+def robust_problem():
+    box = o.default_box(o.Design(thickness_ratio=2.0))
+    conditions = o.Conditions(**SAMPLES)
+    return o.make_problem(m.CollisionParams(), SMALL_MESH, SETTINGS, box, conditions)
 
 
 def test_forward_gradient_matches_central_differences(problem):
@@ -109,3 +121,82 @@ def test_cli_tune_json(problem, capsys):
     assert abs(beam - 0.6) <= 0.01
     assert cli.main(["tune", "--json", "--no-cache"]) == cli.EXIT_USAGE  # no target given
     assert np.isfinite(record["thickness_ratio"])
+
+
+def test_bracketing_safeguard_finds_a_target_without_gradient_steps(problem):
+    # a learning rate of 0 keeps the design at its start: only the regula falsi on the sharp
+    # model between the box corners can meet the target
+    stages = (o.Stage(0.05, 0.01, 1, 0.0),)
+    goal = o.objective(o.TargetShare("beam", 0.6))
+    result = o.tune(o.Design(thickness_ratio=2.5), problem, goal, stages=stages, progress=None)
+    assert result.status == "converged", result.message
+    assert "bracketing" in result.message
+    beam = float(o.share(o.evaluate(result.design, problem, goal).fractions, "beam"))
+    assert abs(beam - 0.6) <= 0.01
+    none = o.tune(o.Design(thickness_ratio=2.5), problem, goal, stages=stages, bracket=0)
+    assert none.status == "not converged", none.message  # bracketed by the corners: reachable
+
+
+def test_conditions_input():
+    grid = o.Conditions.grid(velocity=[0.6, 1.0], mass_ratio=[5.0, 10.0, 20.0])
+    assert len(grid) == 6 and float(jnp.sum(grid.weights)) == pytest.approx(1.0)
+    assert grid.rows()[1] == {"velocity": 0.6, "mass_ratio": 10.0, "weight": pytest.approx(1 / 6)}
+    with pytest.raises(ValueError, match="equal"):
+        o.Conditions(velocity=[0.6, 1.0], mass_ratio=[5.0])
+    with pytest.raises(ValueError):
+        o.Conditions(velocity=[-1.0])  # outside CollisionParams' range
+    with pytest.raises(ValueError, match="weights"):
+        o.Conditions(velocity=[0.6, 1.0], weights=[1.0, -1.0])
+
+
+def test_robust_objective_is_the_mean_of_single_runs(problem, robust_problem):
+    design = o.Design(thickness_ratio=2.0)
+    robust = o.evaluate(design, robust_problem, GOAL)
+    assert robust.result.shape == (2,) and robust.samples["beam_bending"].shape == (2,)
+    singles = []
+    for v0, g in zip(SAMPLES["velocity"], SAMPLES["mass_ratio"], strict=True):
+        params = dataclasses.replace(problem.params, velocity=v0, mass_ratio=g).as_arrays()
+        single = o.evaluate(design, dataclasses.replace(problem, params=params), GOAL)
+        singles.append({k: float(v) for k, v in single.fractions.items()})
+    for key, value in robust.fractions.items():
+        each = [s[key] for s in singles]
+        # one vmapped program vs two single runs: equal to rounding (measured 3e-13 absolute)
+        assert float(value) == pytest.approx(np.mean(each), abs=1e-10)
+        assert np.asarray(robust.samples[key]) == pytest.approx(each, abs=1e-10)
+    beams = [s["beam_bending"] + s["beam_axial"] for s in singles]
+    assert abs(beams[0] - beams[1]) > 0.02  # the samples really differ
+    assert float(robust.value) == pytest.approx(float(GOAL(robust.fractions)), rel=1e-12)
+
+
+def test_robust_tuning_meets_the_expected_split_on_the_sharp_model(robust_problem):
+    goal = o.objective(o.TargetShare("beam", 0.35))
+    result = o.tune(o.Design(thickness_ratio=2.5), robust_problem, goal, progress=None)
+    assert result.status == "converged", result.message
+    check = o.evaluate(result.design, robust_problem, goal)  # sharp, vmapped, no smoothing
+    expected = float(o.share(check.fractions, "beam"))
+    assert abs(expected - 0.35) <= 0.01
+    per_sample = np.asarray(o.share(check.samples, "beam"))
+    assert np.mean(per_sample) == pytest.approx(expected, abs=1e-12)
+    assert len(result.samples) == 2 and result.conditions[1]["mass_ratio"] == 20.0
+    spread = result.spread["beam"]
+    assert spread["min"] == pytest.approx(per_sample.min()) and spread["std"] > 0.01
+    assert "2 impact samples" in result.message
+
+
+def test_cli_robust_tune_json(robust_problem, capsys):
+    args = ["tune", "--target-beam-share", "0.35", "--axial-constraint", "--json", "--quiet"]
+    args += ["--velocity-samples", "0.7", "1.0", "--mass-samples", "5", "20", "--pair-samples"]
+    args += ["--ring-segments", "6", "--beam-contact-segments", "8", "--beam-outer-segments", "2"]
+    args += ["--t-max", "1.5", "--dt", repr(DT), "--history-points", "31", "--shape-times", "0.5"]
+    code = cli.main([*args, "--no-cache"])
+    record = json.loads(capsys.readouterr().out)
+    assert code == 0 and record["status"] == "converged" and record["expected"]
+    beams = [
+        s["fractions"]["beam_bending"] + s["fractions"]["beam_axial"] for s in record["samples"]
+    ]
+    assert [s["velocity"] for s in record["samples"]] == [0.7, 1.0]
+    beam = record["fractions"]["beam_bending"] + record["fractions"]["beam_axial"]
+    assert beam == pytest.approx(np.mean(beams), abs=1e-12) and abs(beam - 0.35) <= 0.01
+    bad = ["tune", "--target-beam-share", "0.35", "--velocity-samples", "0.7", "1.0"]
+    bad += ["--mass-samples", "5", "--pair-samples", "--no-cache"]
+    assert cli.main(bad) == cli.EXIT_USAGE  # unequal paired counts
