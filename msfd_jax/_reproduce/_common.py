@@ -54,6 +54,8 @@ class Reproduction:
             lines += ["| Figure | Paper | Ours | Agree | Why |", "|---|---|---|---|---|"]
             mark = {True: "yes", False: "**no**", None: "n/a"}
             for f in self.findings:
-                lines.append(f"| {f.figure} | {f.paper} | {f.ours} | {mark[f.agree]} | {f.reason} |")
+                lines.append(
+                    f"| {f.figure} | {f.paper} | {f.ours} | {mark[f.agree]} | {f.reason} |"
+                )
         lines += ["", f"({self.wall_time_s:.0f} s)", ""]
         return "\n".join(lines)
