@@ -115,7 +115,8 @@ def main() -> None:
         "",
         f"Produced by `python benchmarks/optimise_cost.py`; jax {jax.__version__}, "
         f"{platform.machine()}, {jax.devices()[0].platform}, 2 cores shared with other users "
-        f"(their load changes during a run: compare ratios within one table); max_steps {steps} diffrax steps of "
+        "(their load changes during a run: compare ratios within one table); max_steps "
+        f"{steps} diffrax steps of "
         f"{lean.settings.substeps} Verlet steps.",
         "",
         "## Cost and memory of a gradient (h_b/h_r = 2.5, s = 0.05, w = 0.01)",
