@@ -1,4 +1,4 @@
-"""``msfd bench``: recorded studies, one sub-choice each (``stability`` now; ``accuracy`` later).
+"""``msfd bench``: recorded studies, one sub-choice each (``stability``, ``accuracy``).
 
 A study registers itself in `BENCHES` as (help, add_arguments, handler), the same shape as
 cli.py's `COMMANDS`, so that ``msfd bench accuracy`` is one more entry here.
@@ -65,8 +65,57 @@ def _stability(args: argparse.Namespace) -> int:
     return EXIT_UNEXPECTED if bad else 0
 
 
+def _add_accuracy(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--quick", action="store_true", help="coarse mesh, tau = 1, few steps (a few minutes)"
+    )
+    parser.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    parser.add_argument(
+        "--only",
+        nargs="+",
+        metavar="NAME",
+        help="run only these collisions and/or methods (default: all)",
+    )
+
+
+def _accuracy(args: argparse.Namespace) -> int:
+    from . import _accuracy
+    from .cli import UsageError, enable_compilation_cache
+
+    names = args.only or []
+    unknown = [n for n in names if n not in _accuracy.CASES and n not in _accuracy.METHODS]
+    if unknown:
+        raise UsageError(
+            f"unknown name(s) {', '.join(unknown)}; collisions: {', '.join(_accuracy.CASES)}; "
+            f"methods: {', '.join(_accuracy.METHODS)}"
+        )
+    enable_compilation_cache()
+    start = time.perf_counter()
+    config = _accuracy.QUICK if args.quick else _accuracy.Config()
+    result = _accuracy.study(
+        config,
+        cases=[n for n in names if n in _accuracy.CASES] or None,
+        methods=[n for n in names if n in _accuracy.METHODS] or None,
+    )
+    result["machine"] = f"{platform.node()} ({platform.machine()}, {platform.processor() or 'cpu'})"
+    result["date"] = time.strftime("%Y-%m-%d %H:%M %Z")
+    result["total_wall_time_s"] = time.perf_counter() - start
+    if args.json:
+        print(json.dumps(result))
+    else:
+        print(_accuracy.markdown(result))
+        print(
+            f"\n{len(result['rows'])} runs, {'quick' if args.quick else 'full'} form, "
+            f"{result['total_wall_time_s']:.0f} s in all, {result['date']} on {result['machine']}"
+        )
+    # a failed row of another method is a finding; a failed default-integrator row is not expected
+    failed = [r for r in result["rows"] if r["method"] == "verlet" and not r["ok"]]
+    return EXIT_UNEXPECTED if failed else 0
+
+
 BENCHES: dict[str, tuple[str, Callable, Callable]] = {
     "stability": ("stiff and extreme scenes (docs/stability.md)", _add_stability, _stability),
+    "accuracy": ("error against wall time (docs/accuracy.md)", _add_accuracy, _accuracy),
 }
 
 
