@@ -959,6 +959,7 @@ def fastest_within(
 def plot(result: dict[str, Any], metric: str, path) -> None:
     """Log-log error against median wall time, one panel per collision."""
     from matplotlib.figure import Figure
+    from matplotlib.ticker import NullFormatter
 
     rows = [r for r in result["rows"] if r["metric"] == metric and r["ok"]]
     cases = list(dict.fromkeys(r["case"] for r in rows))
@@ -977,9 +978,9 @@ def plot(result: dict[str, Any], metric: str, path) -> None:
     }
     for ax, case in zip(axes, cases, strict=True):
         for method in dict.fromkeys(r["method"] for r in rows if r["case"] == case):
-            sel = sorted(
+            sel = sorted(  # along the method's parameter (step, tolerance, width)
                 (r for r in rows if r["case"] == case and r["method"] == method),
-                key=lambda r: r["wall_median_s"],
+                key=lambda r: r["value"],
             )
             t = [r["wall_median_s"] for r in sel]
             e = [max(r["error"], 1e-9) for r in sel]
@@ -996,6 +997,7 @@ def plot(result: dict[str, Any], metric: str, path) -> None:
                             textcoords="offset points",
                         )
         ax.axhline(1e-3, color="gray", lw=0.8, ls=":")
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_title(case)
         ax.set_xlabel("wall time, median [s]")
         ax.set_ylabel("max error [K0]")
