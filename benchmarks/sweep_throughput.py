@@ -108,7 +108,8 @@ def write(records: list[dict]) -> None:
         "",
         f"Written by `benchmarks/sweep_throughput.py` on {machine['platform']}, "
         f"{machine['cpus']} CPUs, jax {machine['jax']} ({machine['backend']}).",
-        f"Sweep: {_grid_text()}; default sweep settings (t_max = 10, settle rule, safety 0.5).",
+        f"Sweep: {_grid_text()}; default sweep settings (t_max = {float(SWEEP_SETTINGS.t_max):g}, "
+        f"settle rule, safety {float(SWEEP_SETTINGS.safety):g}).",
         "Collisions/s exclude compilation (each configuration is compiled on one chunk first).",
         "",
         "| mesh | chunk | devices | collisions/s | wall [s] | compile + first chunk [s] |"

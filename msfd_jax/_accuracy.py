@@ -64,7 +64,10 @@ CASES: dict[str, tuple[str, CollisionParams]] = {
 }
 DISSIPATED = FRACTION_KEYS[:5]  # beam bending/axial, ring bending/axial, contact
 LUMPED_KEYS = (*DISSIPATED, "kinetic+elastic")
-QUICK_MESH = Mesh(6, 8, 2)
+TINY_MESH = Mesh(6, 8, 2)  # the implicit solver's tiny case
+# the quick form's mesh: on 6/8+2 the thin free beam breaks its energy balance at every step
+# (the folding is too coarse to follow), on 8/10+3 it settles (as in tuning_success.md)
+QUICK_MESH = Mesh(8, 10, 3)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -96,7 +99,7 @@ class Config:
     etas: tuple[float, ...] = (1e-3, 3e-4)
     rk_eta: float = 1e-4
     kvaerno: tuple[float, ...] = (1e-3, 1e-5)
-    kvaerno_mesh: Mesh = QUICK_MESH
+    kvaerno_mesh: Mesh = TINY_MESH
     kvaerno_t: float = 0.1
     yield_smoothings: tuple[float, ...] = (0.002, 0.005, 0.02, 0.05)
     contact_smoothings: tuple[float, ...] = (1e-4, 1e-3, 1e-2)
