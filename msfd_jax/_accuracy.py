@@ -645,36 +645,16 @@ def case_jobs(name: str, scene: Scene, config: Config, methods: Sequence[str]) -
             )
     if "smoothing" in methods:
         params = CASES[name][1]
-        for ys in config.yield_smoothings:
-            sc = ring_on_beam(params, config.mesh, yield_smoothing=ys)
-            jobs.append(
-                Job(
-                    name,
-                    "fixed_time",
-                    "yield_smoothing",
-                    "s",
-                    ys,
-                    verlet_fixed(sc, 0.5, t1, max_steps=fmax),
-                )
-            )
-            jobs.append(
-                Job(name, "at_stop", "yield_smoothing", "s", ys, verlet_at_stop(sc, 0.5, config))
-            )
-        for cs in config.contact_smoothings:
-            sc = ring_on_beam(params, config.mesh, contact_smoothing=cs)
-            jobs.append(
-                Job(
-                    name,
-                    "fixed_time",
-                    "contact_smoothing",
-                    "w",
-                    cs,
-                    verlet_fixed(sc, 0.5, t1, max_steps=fmax),
-                )
-            )
-            jobs.append(
-                Job(name, "at_stop", "contact_smoothing", "w", cs, verlet_at_stop(sc, 0.5, config))
-            )
+        for method, symbol, levels in (
+            ("yield_smoothing", "s", config.yield_smoothings),
+            ("contact_smoothing", "w", config.contact_smoothings),
+        ):
+            for level in levels:
+                sc = ring_on_beam(params, config.mesh, **{method: level})
+                fixed = verlet_fixed(sc, 0.5, t1, max_steps=fmax)
+                jobs.append(Job(name, "fixed_time", method, symbol, level, fixed))
+                stop = verlet_at_stop(sc, 0.5, config)
+                jobs.append(Job(name, "at_stop", method, symbol, level, stop))
     return jobs
 
 
