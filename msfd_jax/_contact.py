@@ -105,10 +105,29 @@ def _take(x, nodes: tuple[int, ...]):
 
 
 def block_stiffness(modulus_ratio, slenderness, tributary, thickness, width):
-    """Fictitious block of Fig. 8: E b l_t / (h/2) in units M_pr / R^2 (ring units)."""
-    return 8.0 * modulus_ratio * slenderness**2 * width * tributary / thickness
+    """Stiffness of one fictitious block of Fig. 8 in units of M_pr / R^2 (ring units, Eq. 1).
+
+    The block is half of a section of thickness h under uniaxial compression over the node's
+    tributary length L_t, so in SI K = E b L_t / (h/2). With the ring's scales
+    (M_pr = Y b_r h_r^2 / 4, length R) and the arguments as the scene holds them,
+
+    - `modulus_ratio` beta = E/Y, `slenderness` R/h_r,
+    - `tributary` l_t = L_t/R, `width` b/b_r,
+    - `thickness` h/h_r (**in units of h_r**, like every thickness of the scene: 1 for the
+      ring, h_b/h_r for the beam),
+
+    K R^2 / M_pr = 2 E b l_t R^3 / (h Y b_r h_r^2 / 4) = 8 beta (b/b_r) (R/h_r)^3 l_t / (h/h_r).
+
+    (Issue 9: this once read 8 beta (R/h_r)^2 l_t / thickness, correct only for h in units of
+    R, and left every contact spring R/h_r times too soft; tests/test_units.py audits it.)
+    """
+    return 8.0 * modulus_ratio * slenderness**3 * width * tributary / thickness
 
 
 def block_yield(slenderness, tributary, width):
-    """Yield force Y b l_t of a block (Eq. 18) in units M_pr / R."""
+    """Yield force Y b L_t of one block (Eq. 18) in units of M_pr / R.
+
+    F R / M_pr = Y b l_t R^2 / (Y b_r h_r^2 / 4) = 4 (b/b_r) (R/h_r)^2 l_t, with `tributary`
+    l_t = L_t/R and `width` b/b_r.
+    """
     return 4.0 * slenderness**2 * width * tributary
