@@ -168,36 +168,55 @@ CATALOGUE: tuple[StabilityScene, ...] = (
         step_factor=1.0,
         fixed_mesh=True,
     ),
+    # The estimate is safe but conservative where the contact bound dominates (issue 9: the
+    # observed limit of the showcase is 1.41 dt_crit on the paper mesh, 2.05 on the coarse
+    # one; benchmarks/results/stability_limit.md): 1.1 and 1.2 finish, 1.5 is caught.
     _S(
         "over_limit_1.1",
-        "dt = 1.1 dt_crit (paper mesh)",
+        "dt = 1.1 dt_crit (paper mesh: stable, the observed limit is 1.41)",
         mesh=PAPER_MESH,
         step_factor=1.1,
-        expect=STOPPED,
-        cause=_LIMIT,
         fixed_mesh=True,
     ),
     _S(
         "over_limit_1.2",
-        "dt = 1.2 dt_crit (paper mesh)",
+        "dt = 1.2 dt_crit (paper mesh: stable)",
         mesh=PAPER_MESH,
         step_factor=1.2,
+        fixed_mesh=True,
+    ),
+    _S(
+        "over_limit_1.5",
+        "dt = 1.5 dt_crit (paper mesh: past the observed limit 1.41)",
+        mesh=PAPER_MESH,
+        step_factor=1.5,
         expect=STOPPED,
         cause=_LIMIT,
         fixed_mesh=True,
     ),
+    # past the estimate the step is no longer a default, so only stability is asked of these
+    # two (their energy errors, 3e-3 and 8e-3 K0, are those of a step 0.6-0.7x the true limit)
     _S(
         "coarse_1.2",
         "dt = 1.2 dt_crit (coarse mesh: the estimate is conservative)",
         mesh=QUICK_MESH,
         step_factor=1.2,
+        tolerance=1e-2,
         fixed_mesh=True,
     ),
     _S(
         "coarse_1.5",
-        "dt = 1.5 dt_crit (coarse mesh)",
+        "dt = 1.5 dt_crit (coarse mesh: still stable, the observed limit is 2.05)",
         mesh=QUICK_MESH,
         step_factor=1.5,
+        tolerance=1e-2,
+        fixed_mesh=True,
+    ),
+    _S(
+        "coarse_2.2",
+        "dt = 2.2 dt_crit (coarse mesh: past the observed limit)",
+        mesh=QUICK_MESH,
+        step_factor=2.2,
         expect=STOPPED,
         cause=_LIMIT,
         fixed_mesh=True,

@@ -2,7 +2,7 @@
 
 Scenes from msfd_jax/_stability.py in quick form: the coarse mesh (conftest's SMALL_MESH) and
 one set of static Settings, so they share one compiled program (plus one for the paper mesh,
-where the bracket of the stability estimate is tight, and one without the settling stop).
+where the step past the stability estimate is probed, and one without the settling stop).
 """
 
 import pytest
@@ -28,8 +28,10 @@ def rows():
         "under_limit",
         "over_limit_1.1",
         "over_limit_1.2",
+        "over_limit_1.5",
         "coarse_1.2",
         "coarse_1.5",
+        "coarse_2.2",
     )
     return {r["name"]: r for r in st.run_catalogue(names, quick=True, progress=lambda s: None)}
 
@@ -49,25 +51,30 @@ def test_out_of_range_scene_is_refused_naming_the_parameter(rows):
     assert row["result"] == "refused" and "velocity" in row["message"], row
 
 
-def test_stability_estimate_brackets_the_observed_limit(rows):
-    # paper mesh: 0.9 x dt_crit is stable, 1.1 and 1.2 x are stopped by the energy guard
-    # (5e-2 K0) and the message names the stability limit: the estimate is within 10 %
+def test_stability_estimate_is_safe_and_the_guard_catches_a_step_past_the_limit(rows):
+    # paper mesh: 0.9, 1.1 and 1.2 x dt_crit are stable (since issue 9 the contact bound makes
+    # the estimate conservative: the showcase's observed limit is 1.41 x dt_crit,
+    # benchmarks/results/stability_limit.md); 1.5 x is stopped by the energy guard (5e-2 K0)
+    # within the first impact, and the message names the stability limit
     assert rows["under_limit"]["result"] == "settled"
-    assert abs(rows["under_limit"]["energy_balance_error"]) <= 1e-4  # measured 1.4e-5
+    # measured 1.1e-4 (1.4e-5 before issue 9: the 10x stiffer contact springs close with a kink)
+    assert abs(rows["under_limit"]["energy_balance_error"]) <= 2e-4
     for name in ("over_limit_1.1", "over_limit_1.2"):
-        row = rows[name]
-        assert row["result"] == "energy balance broken", row["message"]
-        assert "1.10 x" in row["message"] or "1.20 x" in row["message"]
-        assert "the computed stability limit" in row["message"]
-        assert row["t_end"] < 0.1  # caught within the first ~200 steps, not at the end
+        assert rows[name]["result"] == "settled", rows[name]["message"]
+    row = rows["over_limit_1.5"]
+    assert row["result"] == "energy balance broken", row["message"]
+    assert "1.50 x" in row["message"] and "the computed stability limit" in row["message"]
+    assert row["t_end"] < 0.1  # caught within the first ~200 steps, not at the end
 
 
 def test_estimate_is_conservative_on_the_coarse_mesh(rows):
-    # coarse mesh: the Gershgorin contact bound over-estimates omega_max, so 1.2 x dt_crit is
-    # still stable and only 1.5 x is caught: the estimate never lets an unstable step through
+    # coarse mesh: the Gershgorin contact bound over-estimates omega_max (observed limit
+    # 2.05 x dt_crit), so 1.2 and 1.5 x are still stable and 2.2 x is caught: the estimate
+    # never lets an unstable step through
     assert rows["coarse_1.2"]["result"] == "settled"
-    assert rows["coarse_1.5"]["result"] == "energy balance broken"
-    assert "the computed stability limit" in rows["coarse_1.5"]["message"]
+    assert rows["coarse_1.5"]["result"] == "settled"
+    assert rows["coarse_2.2"]["result"] == "energy balance broken"
+    assert "the computed stability limit" in rows["coarse_2.2"]["message"]
 
 
 def test_unknown_scene_is_refused():

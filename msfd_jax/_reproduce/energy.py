@@ -52,10 +52,18 @@ def restoring(run: b.Run) -> dict:
         kinetic_at_restore=float(run.energy("kinetic")[i]),
         elastic_at_restore=float(run.energy("elastic")[i]),
         d_local=float(run.energy("contact")[-1]),
+        t_local_90=_time_to_fraction(run.ts, run.energy("contact"), 0.9),
         kinetic_final=float(run.energy("kinetic")[-1]),
         t_end=run.t_end,
         status=run.status,
     )
+
+
+def _time_to_fraction(ts: np.ndarray, energy: np.ndarray, fraction: float) -> float:
+    """First tau at which a dissipated energy reaches `fraction` of its final value."""
+    if energy[-1] <= 0:
+        return float("nan")
+    return float(ts[int(np.argmax(energy >= fraction * energy[-1]))])
 
 
 def alternations(run: b.Run, window: float = 0.05) -> int:
@@ -193,9 +201,12 @@ def reproduce_fig19(quick: bool, figures_dir: Path) -> Reproduction:
         Finding(
             "Fig. 19a",
             "the local contact dissipation is accomplished almost immediately",
-            f"d_local = {a['d_local']:.4f} K0: our contact springs do not yield at v0 = 0.82",
-            None,
-            "nothing to time: the contact dissipation is zero at this velocity (Fig. 16)",
+            f"d_local = {a['d_local']:.4f} K0, 90 % of it reached at tau = "
+            f"{a['t_local_90']:.3f} (t_R = {a['t_restore']:.3f})",
+            bool(a["t_local_90"] <= 0.1 * a["t_restore"]),
+            "the contact yields in the collision stage, while the apex and the beam's "
+            "mid-point reach a common velocity; 'almost immediately' read as within a tenth "
+            "of the restoring instant (set before the run)",
         ),
         Finding(
             "Fig. 19b",
