@@ -64,6 +64,22 @@ def ramp_energy(s, width):
     return jnp.where(width > 0, smooth, 0.5 * pos**2)
 
 
+def _yield_approach(elastic_limit, width):
+    """The elastic approach s at which r(s) = f_y/k (`elastic_limit`), the inverse of `ramp`.
+
+    On the linear branch (f_y/k >= w/2) s = f_y/k + w/2; on the quadratic onset
+    (f_y/k < w/2) s = sqrt(2 w f_y/k). The second case is not an edge case: with the contact
+    stiffness of Eq. 18 (issue 9) f_y/k is 2-4e-4 R on the paper's section, below the
+    smoothing widths that tuning starts from (w = 1e-2), and taking the linear branch there
+    moved the permanent set backwards (negative contact dissipation, energy created).
+    """
+    linear = elastic_limit + 0.5 * width
+    # double where: no NaN gradient from the sqrt where the quadratic branch is not taken
+    on_onset = elastic_limit < 0.5 * width
+    safe = jnp.where(on_onset, 2.0 * width * elastic_limit, 1.0)
+    return jnp.where(on_onset, jnp.sqrt(safe), linear)
+
+
 def contact_spring(approach, permanent_set, stiffness, yield_force, width=0.0):
     """Compression-only elastic-perfectly plastic contact spring with permanent set (Eq. 18).
 
@@ -76,8 +92,7 @@ def contact_spring(approach, permanent_set, stiffness, yield_force, width=0.0):
     s = approach - permanent_set
     trial = stiffness * ramp(s, width)
     yielding = trial > yield_force
-    # the elastic approach at which k r(s) = f_y on the linear branch (f_y/k >= w/2 assumed)
-    s_yield = yield_force / stiffness + 0.5 * width
+    s_yield = _yield_approach(yield_force / stiffness, width)
     new_set = jnp.where(yielding, approach - s_yield, permanent_set)
     force = jnp.where(yielding, yield_force, trial)
     return force, new_set, yield_force * (new_set - permanent_set)

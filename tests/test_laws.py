@@ -97,3 +97,27 @@ def test_laws_vmap_and_finite_gradients_at_rest():
         lambda x: m.contact_spring(x, 0.0, K, FY, 0.01)[0],
     ):
         assert np.isfinite(float(jax.grad(fn)(0.0)))
+
+
+@pytest.mark.parametrize("width", [1e-4, 1e-3, 1e-2])
+def test_smoothed_contact_yields_at_f_y_with_a_growing_set_when_f_y_over_k_is_below_the_width(
+    width,
+):
+    # the paper section's contact springs (issue 9): k ~ 1.5e5 M_pr/R^2, f_y = 40 M_pr/R, so
+    # f_y/k = 2.7e-4 R lies below w/2 for w = 1e-3 and 1e-2: yield on the quadratic onset.
+    # Loading monotonically, the force rises continuously to f_y and stays there, the set
+    # only grows and the dissipation f_y * d(set) is never negative (it once was: the yield
+    # approach assumed the linear branch and moved the set backwards, creating energy)
+    k, f_y = 1.5e5, 40.0
+    approach = jnp.linspace(0.0, 20.0 * f_y / k + 2.0 * width, 4001)
+    force, sets, dissipated = [], [0.0], []
+    for delta in approach:
+        f, s, d = m.contact_spring(delta, sets[-1], k, f_y, width)
+        force.append(float(f))
+        sets.append(float(s))
+        dissipated.append(float(d))
+    force = np.array(force)
+    assert force.max() == pytest.approx(f_y, rel=1e-12)
+    assert np.all(np.diff(sets) >= 0.0) and sets[-1] > 0.0
+    assert min(dissipated) >= 0.0
+    assert np.max(np.abs(np.diff(force))) < 0.05 * f_y  # no jump where yielding begins
