@@ -79,11 +79,20 @@ def test_rate_form_conserves_energy(scene, yielded):
     assert abs(float(d_total)) < 1e-9 * float(scene.initial_kinetic_energy) * 1e3
 
 
-def test_verlet_error_falls_at_second_order(scene):
-    """Fixed-time fractions on the coarse mesh: halving the step divides the error by ~4."""
-    ref = A.verlet_fixed(scene, 0.0125, T_SHORT, max_steps=2**12)()["fractions"]
+def test_verlet_error_falls_at_second_order():
+    """Fixed-time fractions on the coarse mesh: halving the step divides the error by ~4.
+
+    Since issue 9 the contact springs are 10x stiffer and their sharp onset is a kink that a
+    step can move: on this coarse mesh the sharp model converges at order ~1 (measured 0.9,
+    1.2), the paper mesh's showcase at 1.9 (docs/accuracy.md). The integrator's order is
+    checked on forces that are smooth in the positions, with the contact onset resolved
+    (w = 1e-2 R: measured orders 2.08, 1.89). 2**13 diffrax steps: the reference at safety
+    0.0125 needs ~4600 (2**12 cut it short once dt_crit shrank).
+    """
+    scene = m.ring_on_beam(m.CollisionParams(), SMALL_MESH, contact_smoothing=1e-2)
+    ref = A.verlet_fixed(scene, 0.0125, T_SHORT, max_steps=2**13)()["fractions"]
     errors = [
-        A.max_error(A.verlet_fixed(scene, s, T_SHORT, max_steps=2**12)()["fractions"], ref)
+        A.max_error(A.verlet_fixed(scene, s, T_SHORT, max_steps=2**13)()["fractions"], ref)
         for s in (0.2, 0.1, 0.05)
     ]
     orders = [math.log2(a / b) for a, b in zip(errors[:-1], errors[1:], strict=True)]

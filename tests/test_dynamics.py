@@ -102,7 +102,13 @@ def test_showcase_energy_balance_and_partition(showcase):
 
 
 def _beam_dissipation(thickness, adjoint=None, t_max=0.6):
-    scene = m.ring_on_beam(m.CollisionParams(thickness_ratio=thickness), SMALL_MESH)
+    # contact smoothing 1e-3: with the sharp contact (stiff since issue 9) the coarse mesh's
+    # ring chatters on the beam and amplifies rounding differences exponentially (vmap against
+    # a loop: 1e-5 K0 at tau = 0.2, 7e-4 at 0.6); smoothed, the map is smooth and they agree
+    # to 2e-13 (measured)
+    scene = m.ring_on_beam(
+        m.CollisionParams(thickness_ratio=thickness), SMALL_MESH, contact_smoothing=1e-3
+    )
     settings = m.Settings(t_max=t_max, history_points=3, shape_times=(), max_steps=2**13)
     sol = m.simulate(scene, settings, adjoint=adjoint)
     return (sol.bending[1] + sol.axial[1]) / sol.k0
@@ -144,7 +150,10 @@ def test_stability_estimate_brackets_the_limit():
     base = dict(t_max=0.5, history_points=3, shape_times=(), max_steps=2**13)
     stable = m.simulate(scene, m.Settings(dt=0.9 * dt_crit, **base))
     assert int(stable.result) in (0, 1) and abs(float(stable.energy_balance_error)) < 1e-2
-    unstable = m.simulate(scene, m.Settings(dt=1.5 * dt_crit, **base))
+    # the estimate is conservative on this mesh (observed limit of whole runs 2.05 dt_crit
+    # since issue 9's stiffer contact, benchmarks/results/stability_limit.md): 3 x is caught
+    # within the first impact (tau = 0.045); 2.2 x grows too slowly to trip before tau = 0.5
+    unstable = m.simulate(scene, m.Settings(dt=3.0 * dt_crit, **base))
     assert int(unstable.result) in (2, 3)
     message = m.diagnose(unstable, scene)
     assert "stability limit" in message and "tau =" in message

@@ -61,10 +61,12 @@ def test_forces_are_minus_energy_gradient_by_finite_differences(small_mesh):
     x0 = tuple(c.reference for c in scene.chains)
     key = jax.random.PRNGKey(1)
     x = tuple(
-        xi + 1e-4 * jax.random.normal(k, xi.shape) * c.free
+        xi + 1e-5 * jax.random.normal(k, xi.shape) * c.free
         for xi, c, k in zip(x0, scene.chains, jax.random.split(key, 2), strict=True)
     )
-    x = (x[0].at[:, 1].add(0.002), x[1])  # push the ring into contact
+    # push the ring into contact, within the elastic range of the contact springs (since
+    # issue 9 they are 10x stiffer: 2e-3 R now yields them, 2e-4 R loads them to 29 of 50)
+    x = (x[0].at[:, 1].add(2e-4), x[1])
     zero_sets = tuple(jnp.zeros_like(k.stiffness) for k in scene.contacts)
     rot = tuple(jnp.zeros(c.n_joints) for c in scene.chains)
     strain = tuple(jnp.zeros(c.n_nodes - 1) for c in scene.chains)

@@ -46,11 +46,12 @@ def robust_problem():
 def test_forward_gradient_matches_central_differences(problem):
     design = o.Design(thickness_ratio=2.0)
     evaluation, grad = o.gradient(design, problem, GOAL, mode="forward", **SMOOTH)
-    fd = o.finite_difference(design, problem, GOAL, step=1e-3, **SMOOTH)
+    fd = o.finite_difference(design, problem, GOAL, step=3e-4, **SMOOTH)
     assert int(evaluation.result) in (0, 1)
     g, f = float(grad.thickness_ratio), float(fd.thickness_ratio)
     assert abs(g) > 1e-3  # a real slope, not a vanishing one compared to noise
-    # central differences err by O(h^2 f'''): measured 4e-5 relative at h = 1e-3
+    # central differences err by O(h^2 f'''): since issue 9's stiffer contact the map curves
+    # more (1.9e-3 relative at h = 1e-3, 3.8e-4 at 3e-4, 1.5e-4 at 1e-4: converging to g)
     assert g == pytest.approx(f, rel=1e-3)
     # the value is the objective of the smoothed partition
     assert float(evaluation.value) == pytest.approx(float(GOAL(evaluation.fractions)), rel=1e-12)
@@ -151,12 +152,15 @@ def test_conditions_input():
 
 def test_robust_objective_is_the_mean_of_single_runs(problem, robust_problem):
     design = o.Design(thickness_ratio=2.0)
-    robust = o.evaluate(design, robust_problem, GOAL)
+    # smoothed: with the sharp (stiff, issue 9) contact the coarse mesh's ring chatters and
+    # amplifies the rounding differences between a vmapped program and single runs (3e-4 K0
+    # here); smoothed, the map is smooth and the two agree to rounding
+    robust = o.evaluate(design, robust_problem, GOAL, **SMOOTH)
     assert robust.result.shape == (2,) and robust.samples["beam_bending"].shape == (2,)
     singles = []
     for v0, g in zip(SAMPLES["velocity"], SAMPLES["mass_ratio"], strict=True):
         params = dataclasses.replace(problem.params, velocity=v0, mass_ratio=g).as_arrays()
-        single = o.evaluate(design, dataclasses.replace(problem, params=params), GOAL)
+        single = o.evaluate(design, dataclasses.replace(problem, params=params), GOAL, **SMOOTH)
         singles.append({k: float(v) for k, v in single.fractions.items()})
     for key, value in robust.fractions.items():
         each = [s[key] for s in singles]

@@ -21,11 +21,18 @@ from msfd_jax.cli import main
 GRID = {"thickness_ratio": [1.0, 2.5], "axial_constraint": [0.0, 1.0]}
 POINTS = [(1.0, 0.0), (1.0, 1.0), (2.5, 0.0), (2.5, 1.0)]  # C order: last key fastest
 CHUNK = 3
+# the sweeps compared with single runs smooth the contact: with the sharp (stiff, issue 9)
+# contact the coarse mesh's ring chatters and amplifies the rounding differences of a
+# vmapped program exponentially (7e-4 K0 by tau = 0.6, tests/test_dynamics.py); smoothed,
+# the batched and single runs agree to ~1e-13, so the checks below still see the physics
+SMOOTH = 1e-3
 
 
 @pytest.fixture(scope="module")
 def table():
-    return sweep(GRID, SMALL_MESH, SHORT, chunk_size=CHUNK, progress=False)
+    return sweep(
+        GRID, SMALL_MESH, SHORT, chunk_size=CHUNK, progress=False, contact_smoothing=SMOOTH
+    )
 
 
 def test_grid_expansion_and_list_input():
@@ -52,7 +59,7 @@ def test_sweep_equals_single_runs(table):
             constraint,
         )
         params = m.CollisionParams(thickness_ratio=thickness, axial_constraint=constraint)
-        single = m.run(params, SMALL_MESH, SHORT).to_json()
+        single = m.run(params, SMALL_MESH, SHORT, contact_smoothing=SMOOTH).to_json()
         # vmap batches the same arithmetic but may reorder float reductions (measured up to
         # 9e-11 relative on these runs); 1e-9 still catches any difference in the physics
         fractions = {**single["fractions"], **single["kinetic_split"]}
@@ -69,7 +76,9 @@ def test_sweep_equals_single_runs(table):
 
 def test_list_input_gives_the_same_rows(table, capsys):
     rows = [dict(thickness_ratio=t, axial_constraint=a) for t, a in POINTS]
-    listed = sweep(rows, SMALL_MESH, SHORT, chunk_size=CHUNK, progress=True)
+    listed = sweep(
+        rows, SMALL_MESH, SHORT, chunk_size=CHUNK, progress=True, contact_smoothing=SMOOTH
+    )
     assert listed.grid is None and table.grid is not None
     for key in (*INPUTS, *OUTPUTS):
         if key != "wall_time_s":  # same program, same chunks: identical numbers
@@ -126,7 +135,8 @@ def test_cli_sweep(table, tmp_path, capsys):
     short = ["--t-max", "1.5", "--history-points", "31", "--shape-times", "0.5"]
     grid = ["--thickness-ratio", "1:2.5:2", "--axial-constraint", "both"]
     out = tmp_path / "sweep.csv"
-    argv = ["sweep", *grid, *small, *short, "--chunk-size", "3", "--no-cache"]
+    smooth = ["--contact-smoothing", str(SMOOTH)]
+    argv = ["sweep", *grid, *small, *short, *smooth, "--chunk-size", "3", "--no-cache"]
     assert main([*argv, "--csv", str(out), "--json", "--no-progress"]) == 0
     rows = json.loads(capsys.readouterr().out)
     assert [r["steps"] for r in rows] == table["steps"].tolist()
@@ -141,6 +151,7 @@ def test_cli_sweep(table, tmp_path, capsys):
                 str(out),
                 *small,
                 *short,
+                *smooth,
                 "--chunk-size",
                 "3",
                 "--no-cache",
