@@ -12,7 +12,7 @@ import pytest
 from conftest import SMALL_MESH
 
 import msfd_jax as m
-from msfd_jax import _accuracy as A
+from msfd_jax.studies import accuracy as A
 
 T_SHORT = 0.3
 

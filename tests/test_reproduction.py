@@ -78,7 +78,7 @@ def test_local_contact_dissipation_grows_with_velocity(table):
 @pytest.fixture(scope="module")
 def shapes_quick(tmp_path_factory):
     """The quick Fig. 13-14 reproduction (coarse mesh), written to a temporary directory."""
-    from msfd_jax._reproduce import run
+    from msfd_jax.studies.reproduce import run
 
     out = tmp_path_factory.mktemp("reproduce")
     (record,) = run(["fig13_14"], True, out / "figures", out, progress=False)
@@ -86,7 +86,7 @@ def shapes_quick(tmp_path_factory):
 
 
 def test_quick_reproduction_writes_its_figures_and_report(shapes_quick):
-    from msfd_jax._reproduce import Reproduction
+    from msfd_jax.studies.reproduce import Reproduction
 
     record, out = shapes_quick
     assert isinstance(record, Reproduction) and record.key == "fig13_14"

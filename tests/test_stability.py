@@ -7,7 +7,7 @@ where the bracket of the stability estimate is tight, and one without the settli
 
 import pytest
 
-from msfd_jax import _stability as st
+from msfd_jax.studies import stability as st
 
 FINISHING = (
     "showcase",

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import msfd_jax as m
-from msfd_jax._analytic import (
+from msfd_jax.studies.references.analytic import (
     _phase_one_integral,
     beam_central_load,
     elastic_membrane_load,

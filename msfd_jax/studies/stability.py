@@ -32,10 +32,10 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from ._outputs import diagnose
-from ._params import CollisionParams, Mesh
-from ._scene import Scene, ring_on_beam
-from ._simulate import RESULT_NAMES, Settings, simulate
+from .._outputs import diagnose
+from .._params import CollisionParams, Mesh
+from .._scene import Scene, ring_on_beam
+from .._simulate import RESULT_NAMES, Settings, simulate
 
 PAPER_MESH = dict(ring_segments=15, beam_contact_segments=20, beam_outer_segments=5)
 QUICK_MESH = dict(ring_segments=6, beam_contact_segments=8, beam_outer_segments=2)
@@ -347,7 +347,7 @@ def _run_float32(entry: StabilityScene, quick: bool) -> dict[str, Any]:
     code = (
         "import json, sys, warnings; warnings.simplefilter('ignore');"
         "import jax, msfd_jax; jax.config.update('jax_enable_x64', False);"
-        "from msfd_jax import _stability as st;"
+        "from msfd_jax.studies import stability as st;"
         f"print(json.dumps(st._float32_child({entry.name!r}, {quick!r})))"
     )
     start = time.perf_counter()

@@ -40,13 +40,13 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from ._dynamics import State, initial_state, verlet_step
-from ._laws import ramp, ramp_energy
-from ._outputs import FRACTION_KEYS
-from ._params import CollisionParams, Mesh
-from ._scene import Scene, ring_on_beam
-from ._simulate import RESULT_NAMES, Settings, critical_step, simulate
-from ._solver import VelocityVerlet, rate_form
+from ..._dynamics import State, initial_state, verlet_step
+from ..._laws import ramp, ramp_energy
+from ..._outputs import FRACTION_KEYS
+from ..._params import CollisionParams, Mesh
+from ..._scene import Scene, ring_on_beam
+from ..._simulate import RESULT_NAMES, Settings, critical_step, simulate
+from ..._solver import VelocityVerlet, rate_form
 
 # ----------------------------------------------------------------------------------------------
 # Collisions and study configuration
@@ -213,7 +213,7 @@ def _overstress_rate(force, yield_force, stiffness, eta):
 
 def _viscoplastic_response(scene: Scene, y: Viscoplastic, eta):
     """Generalized forces (no clipping: the overstress relaxes at rate 1/eta), flow rates."""
-    from ._dynamics import deformations
+    from ..._dynamics import deformations
 
     (q_chains, q_contacts), pullback = jax.vjp(lambda x: deformations(scene, x), y.x)
     g_chains, rot_rates, strain_rates, bend, axial, elastic = [], [], [], [], [], 0.0
@@ -825,7 +825,7 @@ def candidate_stability(
     safety: float, quick: bool = False, progress: Callable[[str], None] | None = None
 ) -> list[dict[str, Any]]:
     """Every catalogue scene run at the default step (no `step_factor`) with `safety` instead."""
-    from . import _stability as st
+    from .. import stability as st
 
     rows = []
     for entry in st.CATALOGUE:

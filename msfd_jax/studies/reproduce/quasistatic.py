@@ -1,7 +1,7 @@
 """The paper's quasi-static results: Fig. 17(c), Fig. 18 and 22, Eq. 25 and Parkes' cantilever.
 
 - `reproduce_fig17`: the MS-FD half ring driven slowly onto a rigid plate (`ring_on_plate`)
-  against the Appendix's rigid-plastic curve (`msfd_jax._appendix`).
+  against the Appendix's rigid-plastic curve (`msfd_jax.studies.references.appendix`).
 - `reproduce_fig18_22`: the quasi-static load-deformation curves of the ring and the beam on
   one diagram (Fig. 18: h_b/h_r = 3, beam free; Fig. 22: h_b/h_r = 2.5, axially constrained),
   MS-FD and rigid-plastic (Appendix, Eq. 25).
@@ -24,14 +24,18 @@ import numpy as np
 from matplotlib.figure import Figure
 
 import msfd_jax as m
-from msfd_jax._analytic import beam_central_load, elastic_membrane_load, parkes_cantilever
-from msfd_jax._appendix import (
+from msfd_jax.studies.references.analytic import (
+    beam_central_load,
+    elastic_membrane_load,
+    parkes_cantilever,
+)
+from msfd_jax.studies.references.appendix import (
     PAPER_PHASE_ONE_END,
     half_ring_plate_curve,
     initial_collapse_load,
     paper_phase_one,
 )
-from msfd_jax._reproduce._common import Finding, Reproduction
+from msfd_jax.studies.reproduce._common import Finding, Reproduction
 
 jax.config.update("jax_enable_x64", True)
 

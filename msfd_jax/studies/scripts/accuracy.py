@@ -30,9 +30,9 @@ from pathlib import Path
 
 import jax
 
-from msfd_jax import _accuracy as A
+from msfd_jax.studies import accuracy as A
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 RESULTS = ROOT / "benchmarks" / "results"
 FIGURES = ROOT / "docs" / "figures"
 
@@ -106,7 +106,7 @@ def report() -> str:
         lines.append("")
     stab = _load("accuracy_stability.json")
     if stab:
-        from msfd_jax import _stability
+        from msfd_jax.studies import stability as _stability
 
         lines += [
             f"## Stability catalogue at the candidate step safety = {stab['candidate']}",

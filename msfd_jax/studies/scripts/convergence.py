@@ -19,7 +19,7 @@ import numpy as np
 
 import msfd_jax as m
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 CASES = {
     "showcase (2.5, constrained)": m.CollisionParams(),
     "thin free beam (0.5, free)": m.CollisionParams(thickness_ratio=0.5, axial_constraint=0.0),

@@ -21,7 +21,7 @@ import numpy as np
 
 import msfd_jax as m
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 SMALL = m.Mesh(6, 8, 2)
 
 

@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 
 import msfd_jax as m
-from msfd_jax._appendix import half_ring_plate_curve
-from msfd_jax._reproduce.quasistatic import (
+from msfd_jax.studies.references.appendix import half_ring_plate_curve
+from msfd_jax.studies.reproduce.quasistatic import (
     PLATE_YMAX,
     WINDOWS,
     _run_driven,
@@ -27,7 +27,7 @@ from msfd_jax._reproduce.quasistatic import (
     work_mean,
 )
 
-RESULTS = Path(__file__).parent / "results"
+RESULTS = Path(__file__).resolve().parents[3] / "benchmarks" / "results"
 SPEED = 0.02
 
 
@@ -46,7 +46,8 @@ def main() -> None:
         "Written by `python benchmarks/plate_mesh_study.py`. MS-FD half ring (E/Y = 500, "
         f"R/h_r = 10) driven at v = {SPEED:g}; work-averaged whole-ring load p per window of "
         "y_r; rigid-plastic (RP) curves of the Appendix by incremental limit analysis with n "
-        "hinge sites on the quarter ring (`msfd_jax._appendix.half_ring_plate_curve(n)`).",
+        "hinge sites on the quarter ring "
+        "(`msfd_jax.studies.references.appendix.half_ring_plate_curve(n)`).",
         "",
         "| curve | " + " | ".join(f"{a:.2f}-{b:.2f}" for a, b in WINDOWS) + " | peak p | at y_r |",
         "|---|" + "---|" * (len(WINDOWS) + 2),

@@ -1,6 +1,6 @@
 """The paper's quasi-static results: Fig. 17c, Fig. 18/22, Eq. 25 and Parkes (issue 3).
 
-Runs `msfd_jax._reproduce.quasistatic` (paper mesh unless --quick), writes the figures
+Runs `msfd_jax.studies.reproduce.quasistatic` (paper mesh unless --quick), writes the figures
 docs/figures/{fig17c,fig18_fig22,eq25_parkes}.png and the markdown benchmarks/results/
 quasistatic.md (+ quasistatic.json with the numbers).
 
@@ -13,9 +13,9 @@ import argparse
 import json
 from pathlib import Path
 
-from msfd_jax._reproduce import quasistatic as q
+from msfd_jax.studies.reproduce import quasistatic as q
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def main():

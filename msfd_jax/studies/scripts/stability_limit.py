@@ -24,7 +24,7 @@ from msfd_jax._simulate import ENERGY_BALANCE, NON_FINITE
 
 jax.config.update("jax_enable_x64", True)
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 T_MAX = 6.0
 CASES = {
     "showcase (h_b/h_r 2.5, held, g 10, v0 0.82)": m.CollisionParams(),

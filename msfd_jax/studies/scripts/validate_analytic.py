@@ -4,7 +4,7 @@
    l_b = 3 in ring units, E/Y = 2000) against Eq. 25, with and without axial constraint.
 2. Parkes' cantilever struck at the tip (mass ratios 10 and 1, W_f / L ~ 0.2), E/Y = 1e3 ... 1e6.
 
-The work is done by `msfd_jax._reproduce.quasistatic.reproduce_analytic` (also run by
+The work is done by `msfd_jax.studies.reproduce.quasistatic.reproduce_analytic` (also run by
 `msfd reproduce`); this prints its tables and writes docs/figures/eq25_parkes.png.
 
     python benchmarks/validate_analytic.py [--quick] [--mesh-study]
@@ -15,9 +15,9 @@ from __future__ import annotations
 import argparse
 import pathlib
 
-from msfd_jax._reproduce import quasistatic as q
+from msfd_jax.studies.reproduce import quasistatic as q
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = pathlib.Path(__file__).resolve().parents[3]
 
 
 def main():

@@ -1,0 +1,209 @@
+"""What every ``msfd`` subcommand shares: argument groups, exit codes, `UsageError`, the cache.
+
+A leaf of the CLI: it imports the solver (`msfd_jax`) and no subcommand, so each subcommand
+module (``run``, ``sweep``, ``bench``, ``reproduce``, and ``tune`` from `optimise`) reads a
+collision the same way and none of them imports another. Public, because `optimise` uses it.
+
+Exit codes: 0 success, 2 bad input (argparse or parameter validation), 3 failed solve.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import msfd_jax as m
+
+EXIT_OK, EXIT_USAGE, EXIT_SOLVE = 0, 2, 3
+
+
+class UsageError(Exception):
+    """Bad input found while reading the arguments (exit code 2, no traceback)."""
+
+
+# CLI option -> CollisionParams field; defaults are the paper's showcase (CollisionParams()).
+PARAMS = {
+    "thickness_ratio": ("--thickness-ratio", "h_b/h_r, beam to ring thickness"),
+    "modulus_ratio": ("--modulus-ratio", "E/Y, Young's modulus over yield stress"),
+    "slenderness": ("--slenderness", "R/h_r, ring radius over ring thickness"),
+    "mass_ratio": ("--mass-ratio", "g = G/(mu_r R), half block mass over ring mass per radius"),
+    "velocity": ("--velocity", "v0 = V0 sqrt(mu_r R / M_pr), impact velocity"),
+    "span_ratio": ("--span-ratio", "L_b/R, beam half span over ring radius"),
+    "width_ratio": ("--width-ratio", "b_b/b_r, beam to ring width"),
+}
+# CLI option -> from_si keyword; missing values come from m.PAPER_SI.
+SI = {
+    "youngs_modulus": ("--youngs-modulus", "E [Pa]"),
+    "yield_stress": ("--yield-stress", "Y [Pa]"),
+    "density": ("--density", "rho [kg/m^3]"),
+    "radius": ("--radius", "R [m]"),
+    "width": ("--width", "b, ring width [m]"),
+    "ring_thickness": ("--ring-thickness", "h_r [m]"),
+    "beam_thickness": ("--beam-thickness", "h_b [m]"),
+    "beam_half_span": ("--beam-half-span", "L_b, half the beam span [m]"),
+    "velocity": ("--impact-speed", "V0 [m/s]"),
+    "block_mass": ("--block-mass", "2G, the whole rigid block [kg]"),
+    "beam_width": ("--beam-width", "b_b [m] (default: the ring width)"),
+}
+OPTION_NAMES = {
+    **{k: v[0] for k, v in PARAMS.items()},
+    **{k: v[0] for k, v in SI.items() if k != "velocity"},
+    "ring_segments": "--ring-segments",
+    "beam_contact_segments": "--beam-contact-segments",
+    "beam_outer_segments": "--beam-outer-segments",
+    "contact_region": "--contact-region",
+    "safety": "--safety",
+    "dt": "--dt",
+    "t_max": "--t-max",
+    "history_points": "--history-points",
+    "shape_times": "--shape-times",
+    "contact_smoothing": "--contact-smoothing",
+    "yield_smoothing": "--yield-smoothing",
+}
+
+
+def add_collision_arguments(parser: argparse.ArgumentParser) -> None:
+    """Non-dimensional groups (Eq. 1) or their SI alternative, as `from_si` takes them."""
+    group = parser.add_argument_group("collision (non-dimensional, Eq. 1; paper's Fig. 13)")
+    defaults = m.CollisionParams()
+    for field, (flag, text) in PARAMS.items():
+        default = float(getattr(defaults, field))
+        group.add_argument(flag, type=float, dest=field, help=f"{text} (default {default:g})")
+    group.add_argument(
+        "--axial-constraint",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="beam ends held axially (x_E = 0, Eq. 20) or free to slide (default: held)",
+    )
+    si = parser.add_argument_group(
+        "SI inputs (instead of the groups above; missing values are the paper's base case)"
+    )
+    si.add_argument("--si", action="store_true", help="give the collision in SI units")
+    for field, (flag, text) in SI.items():
+        si.add_argument(flag, type=float, dest=f"si_{field}", metavar="X", help=text)
+
+
+def add_numerics_arguments(parser: argparse.ArgumentParser) -> None:
+    """Mesh counts (static: a new mesh compiles anew) and integration settings."""
+    mesh, settings = m.Mesh(), m.Settings()
+    group = parser.add_argument_group("mesh (paper: 15 ring, 20 + 5 beam segments)")
+    for field in ("ring_segments", "beam_contact_segments", "beam_outer_segments"):
+        default = getattr(mesh, field)
+        group.add_argument(OPTION_NAMES[field], type=int, default=default, help=f"({default})")
+    group.add_argument("--contact-region", type=float, default=mesh.contact_region, help="OC / R")
+    group = parser.add_argument_group("numerics")
+    group.add_argument("--safety", type=float, default=settings.safety, help="dt / dt_crit")
+    group.add_argument("--dt", type=float, help="fixed time step (overrides --safety)")
+    group.add_argument("--t-max", type=float, default=settings.t_max, help="cap on tau")
+    group.add_argument("--history-points", type=int, default=settings.history_points)
+    group.add_argument(
+        "--shape-times",
+        type=_times,
+        metavar="T1,T2,...",
+        help="times at which shapes are saved (default: the paper's 0.15,0.49,0.75,1.5 up to "
+        "--t-max)",
+    )
+    group.add_argument("--contact-smoothing", type=float, default=0.0, help="ramp width / R")
+    group.add_argument("--yield-smoothing", type=float, default=0.0, help="fraction of yield")
+    group.add_argument("--no-cache", action="store_true", help="no persistent compile cache")
+
+
+def collision_from_args(args: argparse.Namespace) -> tuple[m.CollisionParams, m.Scales | None]:
+    """The parameters (and SI scales when SI inputs were given); raises ValueError if bad."""
+    given_si = {k: getattr(args, f"si_{k}") for k in SI if getattr(args, f"si_{k}") is not None}
+    given = {k: getattr(args, k) for k in PARAMS if getattr(args, k) is not None}
+    if not (args.si or given_si):
+        return m.CollisionParams(**given, axial_constraint=float(args.axial_constraint)), None
+    if given:
+        flags = ", ".join(PARAMS[k][0] for k in given)
+        raise ValueError(f"{flags} cannot be combined with SI inputs; give the SI value instead")
+    si = {**m.PAPER_SI, **given_si}
+    return m.from_si(**si, axial_constraint=args.axial_constraint)
+
+
+def mesh_from_args(args: argparse.Namespace) -> m.Mesh:
+    return m.Mesh(
+        args.ring_segments,
+        args.beam_contact_segments,
+        args.beam_outer_segments,
+        args.contact_region,
+    )
+
+
+def _times(text: str) -> tuple[float, ...]:
+    try:
+        return tuple(sorted(float(t) for t in text.split(",") if t.strip()))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated numbers, got {text!r}"
+        ) from None
+
+
+def settings_from_args(args: argparse.Namespace) -> m.Settings:
+    m.Settings(t_max=args.t_max, shape_times=())  # t_max first: shape times are judged by it
+    shape_times = args.shape_times
+    if shape_times is None:  # the paper's times (Fig. 13b) that fall inside the run
+        shape_times = tuple(t for t in m.Settings().shape_times if t <= args.t_max)
+    elif any(t > args.t_max for t in shape_times):  # asked for explicitly: refuse, not drop
+        raise ValueError(f"shape_times {shape_times} must lie in [0, t_max = {args.t_max}]")
+    return m.Settings(
+        safety=args.safety,
+        dt=args.dt,
+        t_max=args.t_max,
+        history_points=args.history_points,
+        shape_times=shape_times,
+    )
+
+
+def enable_compilation_cache() -> Path:
+    """JAX's persistent compilation cache, so a second process skips compiling (CLI only).
+
+    The directory is ``$MSFD_CACHE_DIR`` or ``~/.cache/msfd-jax/jax``. JAX never writes an
+    executable that contains host callbacks to the cache, and equinox's runtime checks (used
+    by diffrax on ``dt0`` and ``SaveAt.ts``) are host callbacks under its default
+    ``EQX_ON_ERROR=raise``; so unless the user chose a mode, the CLI switches them to ``nan``:
+    a failed check then gives NaN, which the solver's non-finite guard reports (exit code 3).
+    Our inputs are validated before they reach diffrax, so these checks cannot fire anyway.
+    """
+    import equinox._errors
+    import jax
+
+    # The public switch is the environment variable EQX_ON_ERROR, but equinox reads it once,
+    # at its own import (equinox/_config.py), and `msfd_jax.cli` can only run after
+    # `msfd_jax` (hence diffrax and equinox) is imported: a package's __init__ runs before
+    # its subpackage. Setting os.environ here would change nothing in this process and leak
+    # into child processes. So the one way is equinox's module-level default, which
+    # `error_if` consults at trace time; it is private, hence guarded: a future equinox
+    # without it only loses the cache, never breaks the CLI. The jax settings below are
+    # public configuration.
+    if "EQX_ON_ERROR" not in os.environ and hasattr(equinox._errors, "EQX_ON_ERROR"):
+        equinox._errors.EQX_ON_ERROR = "nan"
+    default = Path.home() / ".cache" / "msfd-jax" / "jax"
+    path = Path(os.environ.get("MSFD_CACHE_DIR") or default).expanduser()
+    jax.config.update("jax_compilation_cache_dir", str(path))
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
+    jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
+    return path
+
+
+def checked(build: Callable, *args, **kwargs):
+    """Call an input-building function, turning its validation errors into `UsageError`."""
+    try:
+        return build(*args, **kwargs)
+    except (ValueError, TypeError) as error:
+        raise UsageError(name_the_option(str(error))) from None
+
+
+def note(text: str) -> None:
+    print(f"msfd: {text}", file=sys.stderr, flush=True)
+
+
+def name_the_option(message: str) -> str:
+    """Append the CLI spelling of a parameter named in a validation message."""
+    for field, flag in OPTION_NAMES.items():
+        if message.startswith(field):
+            return f"{message} (option {flag})"
+    return message
