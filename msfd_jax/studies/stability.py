@@ -34,8 +34,9 @@ import jax.numpy as jnp
 
 from .._outputs import diagnose
 from .._params import CollisionParams, Mesh
+from .._results import RESULTS
 from .._scene import Scene, ring_on_beam
-from .._simulate import RESULT_NAMES, Settings, simulate
+from .._simulate import Settings, simulate
 
 PAPER_MESH = dict(ring_segments=15, beam_contact_segments=20, beam_outer_segments=5)
 QUICK_MESH = dict(ring_segments=6, beam_contact_segments=8, beam_outer_segments=2)
@@ -260,7 +261,7 @@ def run_scene(entry: StabilityScene, quick: bool = False) -> dict[str, Any]:
     wall = time.perf_counter() - start
     return _row(
         entry,
-        RESULT_NAMES[int(sol.result)],
+        RESULTS(int(sol.result)).status,
         t_end=float(sol.t_end),
         steps=int(sol.steps),
         error=float(sol.energy_balance_error),
@@ -326,10 +327,13 @@ def verdict(row: dict[str, Any]) -> str:
     if expect == REFUSED:
         ok = result == REFUSED and row["cause"] in row["message"]
     elif expect == STOPPED:
-        ok = result in (RESULT_NAMES[2], RESULT_NAMES[3]) and row["cause"] in row["message"]
+        ok = (
+            result in (RESULTS.non_finite.status, RESULTS.energy_balance_broken.status)
+            and row["cause"] in row["message"]
+        )
     else:
         ok = (
-            result in (RESULT_NAMES[0], RESULT_NAMES[1])
+            result in (RESULTS.settled.status, RESULTS.time_limit.status)
             and row["finite"]
             and abs(row["energy_balance_error"]) <= row["tolerance"]
             # energy may be left only as a rebound: the structures apart when the run ends

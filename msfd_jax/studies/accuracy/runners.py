@@ -20,8 +20,9 @@ import jax.numpy as jnp
 
 from ..._dynamics import initial_state
 from ..._params import CollisionParams, Mesh
+from ..._results import RESULTS
 from ..._scene import Scene
-from ..._simulate import RESULT_NAMES, Settings, critical_step, simulate
+from ..._simulate import Settings, critical_step, simulate
 from ..._solver import VelocityVerlet, rate_form
 from .methods import (
     YoshidaVerlet,
@@ -275,7 +276,7 @@ def verlet_at_stop(scene: Scene, safety: float, config: Config) -> Callable[[], 
             force_evaluations=int(sol.steps),
             t_end=float(sol.t_end),
             ok=code in (0, 1),
-            result=RESULT_NAMES[code],
+            result=RESULTS(code).status,
         )
 
     return run

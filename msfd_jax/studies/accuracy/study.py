@@ -17,8 +17,9 @@ import jax
 import jax.numpy as jnp
 
 from ..._params import Mesh
+from ..._results import RESULTS
 from ..._scene import Scene, ring_on_beam
-from ..._simulate import RESULT_NAMES, Settings, critical_step, simulate
+from ..._simulate import Settings, critical_step, simulate
 from .methods import lumped, max_error
 from .runners import (
     CASES,
@@ -344,7 +345,7 @@ def mesh_refinement(
                 fractions=f,
                 t_end=float(sol.t_end),
                 steps=int(sol.steps),
-                result=RESULT_NAMES[int(sol.result)],
+                result=RESULTS(int(sol.result)).status,
                 wall_s_with_compile=wall,
             )
             progress(f"  mesh x{factor} {name}: {row}")

@@ -21,8 +21,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..._params import CollisionParams, Mesh, validate
+from ..._results import RESULTS
 from ..._scene import ring_on_beam
-from ..._simulate import RESULT_NAMES, Settings, simulate
+from ..._simulate import Settings, simulate
 from ..._sweep import SweepTable, collisions, step_bound, sweep
 
 RING, BEAM = 0, 1  # chain order of ring_on_beam
@@ -165,7 +166,7 @@ def _one(sol, j: int, params: dict[str, float]) -> Run:
     history["contact_pairs"] = pick(sol.history["contact_pairs"][0])[keep]
     return Run(
         params=params,
-        status=RESULT_NAMES[int(pick(sol.result))],
+        status=RESULTS(int(pick(sol.result))).status,
         t_end=t_end,
         k0=float(pick(sol.k0)),
         ts=ts[keep],

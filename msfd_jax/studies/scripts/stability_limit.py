@@ -20,7 +20,6 @@ import equinox as eqx
 import jax
 
 import msfd_jax as m
-from msfd_jax._simulate import ENERGY_BALANCE, NON_FINITE
 
 jax.config.update("jax_enable_x64", True)
 
@@ -46,7 +45,7 @@ def stable(scene, dt_crit, factor) -> bool:
         max_steps=2**13,
     )
     sol = m.simulate(scene, settings)
-    return int(sol.result) not in (NON_FINITE, ENERGY_BALANCE)
+    return int(sol.result) not in (m.RESULTS.non_finite, m.RESULTS.energy_balance_broken)
 
 
 def limit(scene, lo=0.8, hi=1.6, iterations=8):
