@@ -312,7 +312,7 @@ def candidate_stability(
 
 
 # ----------------------------------------------------------------------------------------------
-# Mesh refinement (extends benchmarks/convergence.py)
+# Mesh refinement (extends msfd_jax/studies/scripts/convergence.py)
 
 
 def mesh_refinement(

@@ -5,7 +5,7 @@
 - the settle-window study: dissipated fractions against the stop time for three step sizes;
 - contact dissipation of the constrained h_b/h_r = 1 collision at v0 = 0.4, 0.82, 1.6.
 
-    python benchmarks/numerics_checks.py     # ~3 min on the 2-core machine
+    python -m msfd_jax.studies.scripts.numerics_checks     # ~3 min on the 2-core machine
 Writes benchmarks/results/numerics_checks.md.
 """
 
@@ -147,7 +147,8 @@ def main() -> int:
     lines = [
         "# Numerics checks quoted in docs/model.md and the issue notes",
         "",
-        f"Produced by `python benchmarks/numerics_checks.py` ({time.strftime('%Y-%m-%d')}, "
+        "Produced by `python -m msfd_jax.studies.scripts.numerics_checks` "
+        f"({time.strftime('%Y-%m-%d')}, "
         "2-core CPU, not pinned).",
         "",
     ]

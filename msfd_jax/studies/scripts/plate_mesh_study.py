@@ -6,7 +6,7 @@ plate (v = 0.02, as Fig. 17c) with 15, 16 and 32 segments and compares each with
 rigid-plastic curve of the Appendix (incremental limit analysis) on the same polygon (16, 32)
 and on the fine one (240). Writes benchmarks/results/plate_mesh.md.
 
-    python benchmarks/plate_mesh_study.py
+    python -m msfd_jax.studies.scripts.plate_mesh_study
 """
 
 from __future__ import annotations
@@ -43,7 +43,8 @@ def main() -> None:
     lines = [
         "# Ring on plate: mesh and hinge-site study (Fig. 17c)",
         "",
-        "Written by `python benchmarks/plate_mesh_study.py`. MS-FD half ring (E/Y = 500, "
+        "Written by `python -m msfd_jax.studies.scripts.plate_mesh_study`. "
+        "MS-FD half ring (E/Y = 500, "
         f"R/h_r = 10) driven at v = {SPEED:g}; work-averaged whole-ring load p per window of "
         "y_r; rigid-plastic (RP) curves of the Appendix by incremental limit analysis with n "
         "hinge sites on the quarter ring "

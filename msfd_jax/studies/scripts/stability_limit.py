@@ -7,7 +7,7 @@ unstable value over the whole run (to the settled stop, tau <= 6, the default st
 sub-steps); a run counts as unstable when the energy guard (0.05 K0) or the non-finite guard
 stops it.
 
-    python benchmarks/stability_limit.py        # ~5 min on the 2-core machine
+    python -m msfd_jax.studies.scripts.stability_limit        # ~5 min on the 2-core machine
 Writes benchmarks/results/stability_limit.md.
 """
 
@@ -65,7 +65,7 @@ def main():
     lines = [
         "# Observed stability limit against the estimate dt_crit",
         "",
-        "Produced by `python benchmarks/stability_limit.py` "
+        "Produced by `python -m msfd_jax.studies.scripts.stability_limit` "
         f"({time.strftime('%Y-%m-%d %H:%M %Z')}, jax {jax.__version__}). Paper mesh 15/20+5, "
         f"whole runs (settled stop, tau <= {T_MAX}); f = dt/dt_crit bisected (8 halvings) "
         "between the largest stable and the smallest unstable factor (unstable: the energy guard "
