@@ -259,6 +259,7 @@ def main():
     # the scan program's HLO (its while body is one step): kernels a CPU launches per step
     step_hlo = hlo_counts(scan_fn(), scene, state, dt, tol, n)
     out = dict(
+        command=" ".join(["python benchmarks/profile_step.py", *sys.argv[1:]]),
         steps=n,
         xla_flags=os.environ.get("XLA_FLAGS", ""),
         jax=jax.__version__,

@@ -481,6 +481,7 @@ def main():
 def _write(r: dict, suffix: str):
     for t in r["targets"]:
         print(("MET     " if t["met"] else "NOT MET ") + t["name"] + ": " + t["detail"])
+    r.setdefault("command", " ".join(["python benchmarks/showcase.py", *sys.argv[1:]]))
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / f"showcase{suffix}.json").write_text(json.dumps(r, indent=2) + "\n")
     (RESULTS / f"showcase{suffix}.md").write_text(markdown(r))

@@ -21,6 +21,7 @@ import dataclasses
 import json
 import os
 import platform
+import sys
 import time
 from pathlib import Path
 
@@ -102,7 +103,9 @@ def write(records: list[dict]) -> None:
         jax=jax.__version__,
         backend=jax.default_backend(),
     )
-    path.write_text(json.dumps(dict(machine=machine, grid=_grid_text(), runs=runs), indent=1))
+    command = " ".join(["python benchmarks/sweep_throughput.py", *sys.argv[1:]])
+    record = dict(command=command, machine=machine, grid=_grid_text(), runs=runs)
+    path.write_text(json.dumps(record, indent=1))
     lines = [
         "# Sweep throughput",
         "",

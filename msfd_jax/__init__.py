@@ -17,6 +17,7 @@ from ._outputs import (  # noqa: E402
     run,
 )
 from ._params import PAPER_SI, CollisionParams, Mesh, Scales, from_si, validate  # noqa: E402
+from ._results import RESULT_NAMES, RESULTS  # noqa: E402
 from ._scene import (  # noqa: E402
     Drive,
     Scene,
@@ -25,7 +26,7 @@ from ._scene import (  # noqa: E402
     ring_on_beam,
     ring_on_plate,
 )
-from ._simulate import RESULT_NAMES, Settings, Solution, simulate  # noqa: E402
+from ._simulate import Settings, Solution, simulate  # noqa: E402
 from ._sweep import SweepTable, sweep  # noqa: E402
 
 __all__ = [
@@ -46,6 +47,7 @@ __all__ = [
     "NodeToPlaneContact",
     "PAPER_SI",
     "RESULT_NAMES",
+    "RESULTS",
     "Scales",
     "Scene",
     "Section",

@@ -11,14 +11,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._params import CollisionParams, Mesh
+from ._results import FAILED, RESULTS
 from ._scene import Scene, ring_on_beam
 from ._simulate import (
-    ENERGY_BALANCE,
-    MAX_STEPS,
-    NON_FINITE,
-    RESULT_NAMES,
-    SETTLED,
-    TIME_LIMIT,
     Settings,
     Solution,
     simulate,
@@ -70,11 +65,11 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
     code = int(sol.result)
     t = float(sol.t_end)
     dt, dt_crit = float(sol.dt), float(sol.dt_critical)
-    if code == SETTLED:
+    if code == RESULTS.settled:
         return f"settled: plastic dissipation stopped; ended at tau = {t:.4g}"
-    if code == TIME_LIMIT:
+    if code == RESULTS.time_limit:
         return f"reached the time cap tau = {t:.4g} (dissipation had not stopped)"
-    if code == MAX_STEPS:
+    if code == RESULTS.max_steps:
         return (
             f"stopped at tau = {t:.4g} after the maximum number of steps ({int(sol.steps)}); "
             "raise Settings.max_steps or the step size"
@@ -104,9 +99,9 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
             if collapse
             else "refine the mesh (Mesh.refined) or lower the velocity; a smaller dt rarely helps"
         )
-    what = "became non-finite" if code == NON_FINITE else "broke its energy balance"
-    err = float(sol.energy_balance_error) if code == ENERGY_BALANCE else float("nan")
-    detail = f" (error {err:.3g} K0)" if code == ENERGY_BALANCE else ""
+    what = "became non-finite" if code == RESULTS.non_finite else "broke its energy balance"
+    err = float(sol.energy_balance_error) if code == RESULTS.energy_balance_broken else float("nan")
+    detail = f" (error {err:.3g} K0)" if code == RESULTS.energy_balance_broken else ""
     return (
         f"the solve {what}{detail} at tau = {t:.4g} in the {place}; likely cause: {cause}; "
         f"remedy: {remedy}"
@@ -155,7 +150,7 @@ class Collision:
 
     @property
     def status(self) -> str:
-        return RESULT_NAMES[int(self.solution.result)]
+        return RESULTS(int(self.solution.result)).status
 
     @property
     def message(self) -> str:
@@ -218,6 +213,6 @@ def run(
     solution = jax.block_until_ready(simulate(scene, settings))
     wall = time.perf_counter() - start
     collision = Collision(params, mesh, scene, solution, wall)
-    if check and int(solution.result) in (NON_FINITE, ENERGY_BALANCE, MAX_STEPS):
+    if check and int(solution.result) in FAILED:
         raise SimulationError(collision.message)
     return collision

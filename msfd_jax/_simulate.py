@@ -19,13 +19,19 @@ from jaxtyping import Array, Float
 
 from ._dynamics import State, critical_step, initial_state
 from ._params import _check_count, _check_value
+from ._results import (  # noqa: F401  (the former constants, re-exported)
+    ENERGY_BALANCE,
+    MAX_STEPS,
+    NON_FINITE,
+    RESULT_NAMES,
+    RESULTS,
+    SETTLED,
+    TIME_LIMIT,
+)
 from ._scene import Scene
 from ._solver import VelocityVerlet, rate_form
 
 _critical_step = eqx.filter_jit(critical_step)
-
-SETTLED, TIME_LIMIT, NON_FINITE, ENERGY_BALANCE, MAX_STEPS = range(5)
-RESULT_NAMES = ("settled", "time limit", "non-finite", "energy balance broken", "max steps")
 
 
 class Settings(eqx.Module):
@@ -248,14 +254,14 @@ def _simulate(
     err = _energy_error(scene, final, k0)
     code = jnp.where(
         ~jnp.isfinite(err),
-        NON_FINITE,
+        RESULTS.non_finite,
         jnp.where(
             jnp.abs(err) > settings.energy_guard,
-            ENERGY_BALANCE,
+            RESULTS.energy_balance_broken,
             jnp.where(
                 sol.result == diffrax.RESULTS.max_steps_reached,
-                MAX_STEPS,
-                jnp.where(t_end < settings.t_max, SETTLED, TIME_LIMIT),
+                RESULTS.max_steps,
+                jnp.where(t_end < settings.t_max, RESULTS.settled, RESULTS.time_limit),
             ),
         ),
     )

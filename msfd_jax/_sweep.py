@@ -29,8 +29,9 @@ import numpy as np
 from ._dynamics import critical_step
 from ._outputs import FRACTION_KEYS, diagnose, fractions
 from ._params import CollisionParams, Mesh, validate
+from ._results import FAILED, RESULTS
 from ._scene import ring_on_beam
-from ._simulate import ENERGY_BALANCE, MAX_STEPS, NON_FINITE, RESULT_NAMES, Settings, simulate
+from ._simulate import Settings, simulate
 
 INPUTS = tuple(f.name for f in dataclasses.fields(CollisionParams))
 KINETIC_KEYS = ("kinetic_ring", "kinetic_block", "kinetic_beam")
@@ -52,7 +53,6 @@ OUTPUTS = (
 # so by default it saves two history samples and no shapes (the outputs do not depend on them).
 SWEEP_SETTINGS = Settings(history_points=2, shape_times=())
 DEFAULT_CHUNK = 64
-_FAILED = (NON_FINITE, ENERGY_BALANCE, MAX_STEPS)
 
 
 @dataclasses.dataclass
@@ -80,7 +80,7 @@ class SweepTable:
     @property
     def failed(self) -> np.ndarray:
         """Rows that went non-finite, broke their energy balance or ran out of steps."""
-        return np.isin(self.columns["result"], _FAILED)
+        return np.isin(self.columns["result"], FAILED)
 
     def rows(self) -> list[dict[str, Any]]:
         """The table as a list of flat dicts of Python scalars (JSON-ready)."""
@@ -391,7 +391,7 @@ def _rows(outputs: dict, solution, mesh: Mesh, wall: float) -> dict[str, np.ndar
         out[k] = np.asarray(getattr(solution, k), np.float64)
     out["steps"] = np.asarray(solution.steps, np.int64)
     out["result"] = np.asarray(solution.result, np.int64)
-    out["status"] = np.asarray([RESULT_NAMES[c] for c in out["result"]], dtype=str)
+    out["status"] = np.asarray([RESULTS(c).status for c in out["result"]], dtype=str)
     out["message"] = np.asarray([diagnose(solution, scene, i) for i in range(n)], dtype=str)
     # a chunk runs as one batch: each collision is given an equal share of its wall time
     out["wall_time_s"] = np.full(n, wall / n)

@@ -39,8 +39,8 @@ from pathlib import Path
 import numpy as np
 from IPython.display import Image, Markdown, display
 
-from msfd_jax._appendix import half_ring_plate_curve, initial_collapse_load
-from msfd_jax._reproduce import FIGURES, load
+from msfd_jax.studies.references.appendix import half_ring_plate_curve, initial_collapse_load
+from msfd_jax.studies.reproduce import FIGURES, load
 
 figures = Path(tempfile.mkdtemp(prefix="msfd-reproduce-"))
 print("reproducible results:", ", ".join(FIGURES))
@@ -106,7 +106,8 @@ show(contact)
 # The Appendix's half ring, pressed by a rigid plate, collapses first with hinges at the crown,
 # at pi/4 and at the support: p0 = 4(1 + sqrt 2) M_pr/R. Its later phases (a travelling hinge,
 # the contact running out along the ring) are computed by incremental limit analysis
-# (`msfd_jax._appendix.half_ring_plate_curve`). The MS-FD ring, driven slowly, follows it.
+# (`msfd_jax.studies.references.appendix.half_ring_plate_curve`). The MS-FD ring, driven
+# slowly, follows it.
 
 # %%
 curve = half_ring_plate_curve(120, 2.0e-3)

@@ -1,7 +1,8 @@
 """``msfd tune``: find the beam thickness (and more) that gives a target energy split.
 
-Registered in `msfd_jax.cli.COMMANDS` through a lazy import (msfd_jax never imports this
-package at module import). The collision, mesh and numerics options are `msfd run`'s.
+Registered in `msfd_jax.cli.COMMANDS` by `msfd_jax.cli.tune`, a lazy import (msfd_jax never
+imports this package at module import). The collision, mesh and numerics options are
+`msfd run`'s (`msfd_jax.cli.common`).
 
 Robust tuning: ``--velocity-samples 0.6 0.82 1.0 --mass-samples 5 10 20`` tunes the *expected*
 split over every combination of the samples (9 collisions, vmapped in one program; with
@@ -17,7 +18,7 @@ import argparse
 import json
 
 import msfd_jax as m
-from msfd_jax import cli
+from msfd_jax.cli import common as cli  # the leaf: importing msfd_jax.cli would cycle
 
 from ._conditions import Conditions
 from ._design import DEFAULT_BOUNDS, Design, default_box
@@ -146,7 +147,7 @@ def tune_command(args: argparse.Namespace) -> int:
         for s in DEFAULT_STAGES
     )
     if not args.json or not args.quiet:
-        cli._note("tuning; the first iteration compiles for a while...")
+        cli.note("tuning; the first iteration compiles for a while...")
     try:
         problem = make_problem(params, mesh, settings, box, conditions)
         result = tune(
@@ -157,10 +158,10 @@ def tune_command(args: argparse.Namespace) -> int:
             stages=stages,
             mode=args.mode,
             tolerance=args.tolerance,
-            progress=None if args.quiet else cli._note,
+            progress=None if args.quiet else cli.note,
         )
     except m.SimulationError as error:
-        cli._note(f"simulation failed: {error}")
+        cli.note(f"simulation failed: {error}")
         return cli.EXIT_SOLVE
     if args.json:
         print(json.dumps(result.to_json()))

@@ -26,7 +26,7 @@ from msfd_jax._simulate import max_steps_for
 from ._conditions import Conditions, expectation
 from ._design import Box, Design
 
-FAILED = (2, 3, 4)  # non-finite, energy balance broken, max steps (msfd_jax.RESULT_NAMES)
+FAILED = tuple(r for r in m.RESULTS if r.failed)  # non-finite, energy balance, max steps
 
 
 def arrays(tree):
@@ -177,6 +177,6 @@ def check(evaluation: Evaluation, design: Design, conditions: Conditions | None 
             where = "" if conditions is None else f" under impact conditions {conditions.rows()[i]}"
             raise m.SimulationError(
                 f"the collision at design {design.as_floats()}{where} ended with "
-                f"'{m.RESULT_NAMES[code]}'; lower Settings.safety, raise Settings.max_steps "
+                f"'{m.RESULTS(code).status}'; lower Settings.safety, raise Settings.max_steps "
                 "or narrow the bounds"
             )

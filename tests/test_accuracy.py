@@ -1,4 +1,4 @@
-"""The work-precision study's pieces (msfd_jax/_accuracy.py, docs/accuracy.md).
+"""The work-precision study's pieces (msfd_jax/studies/accuracy/, docs/accuracy.md).
 
 Coarse mesh, short runs; the three Verlet runs share one compiled program (`_solve`).
 """
@@ -12,7 +12,7 @@ import pytest
 from conftest import SMALL_MESH
 
 import msfd_jax as m
-from msfd_jax import _accuracy as A
+from msfd_jax.studies import accuracy as A
 
 T_SHORT = 0.3
 

@@ -1,4 +1,4 @@
-"""The Appendix's rigid-plastic half ring under a plate (msfd_jax._appendix), and MS-FD against it.
+"""The Appendix's rigid-plastic half ring under a plate (studies/references/appendix.py), and MS-FD.
 
 Units: p is the load on the whole half ring in M_pr / R, y_r the plate displacement in R.
 """
@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from msfd_jax import _appendix as a
-from msfd_jax._reproduce import quasistatic as q
+from msfd_jax.studies.references import appendix as a
+from msfd_jax.studies.reproduce import quasistatic as q
 
 P0 = 4.0 * (1.0 + math.sqrt(2.0))  # hand calculation: _appendix.initial_collapse_load docstring
 

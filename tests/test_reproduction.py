@@ -84,7 +84,7 @@ def test_local_contact_dissipation_grows_with_velocity(table):
 @pytest.fixture(scope="module")
 def shapes_quick(tmp_path_factory):
     """The quick Fig. 13-14 reproduction (coarse mesh), written to a temporary directory."""
-    from msfd_jax._reproduce import run
+    from msfd_jax.studies.reproduce import run
 
     out = tmp_path_factory.mktemp("reproduce")
     (record,) = run(["fig13_14"], True, out / "figures", out, progress=False)
@@ -92,7 +92,7 @@ def shapes_quick(tmp_path_factory):
 
 
 def test_quick_reproduction_writes_its_figures_and_report(shapes_quick):
-    from msfd_jax._reproduce import Reproduction
+    from msfd_jax.studies.reproduce import Reproduction
 
     record, out = shapes_quick
     assert isinstance(record, Reproduction) and record.key == "fig13_14"
@@ -108,7 +108,7 @@ def test_quick_reproduction_writes_its_figures_and_report(shapes_quick):
 
 def test_the_final_ring_turns_from_u_to_w_as_the_beam_thickens(shapes_quick):
     # Sect. 4.2 / Fig. 14. Dimple depth w = (max_i y_i - y_apex)/R of the final ring
-    # (msfd_jax/_reproduce/shapes.py); "U" below 0.1 h_r/R = 0.01 (a tenth of the ring's
+    # (msfd_jax/studies/reproduce/shapes.py); "U" below 0.1 h_r/R = 0.01 (a tenth of the ring's
     # thickness, node-level ripple of a flat bottom), "W" beyond h_r/R = 0.1 (the apex
     # pushed back by more than the ring's thickness); scales of the section, not fitted.
     # Coarse mesh, constrained, g = 10, v0 = 0.82; measured w = 0.000 (0.5, 1), 0.059 (2),

@@ -1,13 +1,13 @@
 """Fast form of the stability catalogue (issue 5 item 2; full table: docs/stability.md).
 
-Scenes from msfd_jax/_stability.py in quick form: the coarse mesh (conftest's SMALL_MESH) and
+Scenes from msfd_jax/studies/stability.py in quick form: the coarse mesh (conftest's SMALL_MESH) and
 one set of static Settings, so they share one compiled program (plus one for the paper mesh,
 where the step past the stability estimate is probed, and one without the settling stop).
 """
 
 import pytest
 
-from msfd_jax import _stability as st
+from msfd_jax.studies import stability as st
 
 FINISHING = (
     "showcase",

@@ -3,7 +3,7 @@
 Two compiled programs in all: one beam drive (both support conditions, since the axial
 constraint is an array) and one cantilever (every mass, velocity and E/Y, arrays too); the
 step bound `max_steps` and `t_max` (an array) are fixed so no case recompiles.
-Measured numbers: docs/validation_quickstatic.md (benchmarks/validate_analytic.py).
+Measured numbers: docs/validation_quickstatic.md (python -m msfd_jax.studies.scripts.validate_analytic).
 """
 
 import math
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import msfd_jax as m
-from msfd_jax._analytic import (
+from msfd_jax.studies.references.analytic import (
     _phase_one_integral,
     beam_central_load,
     elastic_membrane_load,

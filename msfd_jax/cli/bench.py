@@ -1,7 +1,7 @@
 """``msfd bench``: recorded studies, one sub-choice each (``stability``, ``accuracy``).
 
 A study registers itself in `BENCHES` as (help, add_arguments, handler), the same shape as
-cli.py's `COMMANDS`, so that ``msfd bench accuracy`` is one more entry here.
+`msfd_jax.cli.COMMANDS`, so that ``msfd bench accuracy`` is one more entry here.
 
 Exit codes: 0 every row as expected, 1 some row not as expected, 2 bad input.
 """
@@ -13,6 +13,8 @@ import json
 import platform
 import time
 from collections.abc import Callable
+
+from . import common
 
 EXIT_UNEXPECTED = 1
 
@@ -28,16 +30,15 @@ def _add_stability(parser: argparse.ArgumentParser) -> None:
 
 
 def _stability(args: argparse.Namespace) -> int:
-    from . import _stability
-    from .cli import UsageError, enable_compilation_cache
+    from ..studies import stability as _stability  # lazy: `msfd run` loads no study
 
     if args.only:
         unknown = [n for n in args.only if n not in _stability.BY_NAME]
         if unknown:
-            raise UsageError(
+            raise common.UsageError(
                 f"unknown scene(s) {', '.join(unknown)}; known: {', '.join(_stability.BY_NAME)}"
             )
-    enable_compilation_cache()
+    common.enable_compilation_cache()
     start = time.perf_counter()
     rows = _stability.run_catalogue(args.only, quick=args.quick)
     machine = f"{platform.node()} ({platform.machine()}, {platform.processor() or 'cpu'})"
@@ -79,17 +80,16 @@ def _add_accuracy(parser: argparse.ArgumentParser) -> None:
 
 
 def _accuracy(args: argparse.Namespace) -> int:
-    from . import _accuracy
-    from .cli import UsageError, enable_compilation_cache
+    from ..studies import accuracy as _accuracy
 
     names = args.only or []
     unknown = [n for n in names if n not in _accuracy.CASES and n not in _accuracy.METHODS]
     if unknown:
-        raise UsageError(
+        raise common.UsageError(
             f"unknown name(s) {', '.join(unknown)}; collisions: {', '.join(_accuracy.CASES)}; "
             f"methods: {', '.join(_accuracy.METHODS)}"
         )
-    enable_compilation_cache()
+    common.enable_compilation_cache()
     start = time.perf_counter()
     config = _accuracy.QUICK if args.quick else _accuracy.Config()
     result = _accuracy.study(
@@ -119,7 +119,7 @@ BENCHES: dict[str, tuple[str, Callable, Callable]] = {
 }
 
 
-def add_bench_arguments(parser: argparse.ArgumentParser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     """One sub-choice per study in `BENCHES`."""
     studies = parser.add_subparsers(dest="study", required=True, metavar="STUDY")
     for name, (text, add_arguments, handler) in BENCHES.items():
@@ -128,6 +128,6 @@ def add_bench_arguments(parser: argparse.ArgumentParser) -> None:
         sub.set_defaults(study_handler=handler)
 
 
-def bench(args: argparse.Namespace) -> int:
+def handle(args: argparse.Namespace) -> int:
     """Handler of ``msfd bench``: run the chosen study."""
     return args.study_handler(args)

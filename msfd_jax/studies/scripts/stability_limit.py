@@ -7,7 +7,7 @@ unstable value over the whole run (to the settled stop, tau <= 6, the default st
 sub-steps); a run counts as unstable when the energy guard (0.05 K0) or the non-finite guard
 stops it.
 
-    python benchmarks/stability_limit.py        # ~5 min on the 2-core machine
+    python -m msfd_jax.studies.scripts.stability_limit        # ~5 min on the 2-core machine
 Writes benchmarks/results/stability_limit.md.
 """
 
@@ -20,11 +20,10 @@ import equinox as eqx
 import jax
 
 import msfd_jax as m
-from msfd_jax._simulate import ENERGY_BALANCE, NON_FINITE
 
 jax.config.update("jax_enable_x64", True)
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 T_MAX = 6.0
 CASES = {
     "showcase (h_b/h_r 2.5, held, g 10, v0 0.82)": m.CollisionParams(),
@@ -46,7 +45,7 @@ def stable(scene, dt_crit, factor) -> bool:
         max_steps=2**13,
     )
     sol = m.simulate(scene, settings)
-    return int(sol.result) not in (NON_FINITE, ENERGY_BALANCE)
+    return int(sol.result) not in (m.RESULTS.non_finite, m.RESULTS.energy_balance_broken)
 
 
 def limit(scene, lo=0.8, hi=1.6, iterations=8):
@@ -66,7 +65,7 @@ def main():
     lines = [
         "# Observed stability limit against the estimate dt_crit",
         "",
-        "Produced by `python benchmarks/stability_limit.py` "
+        "Produced by `python -m msfd_jax.studies.scripts.stability_limit` "
         f"({time.strftime('%Y-%m-%d %H:%M %Z')}, jax {jax.__version__}). Paper mesh 15/20+5, "
         f"whole runs (settled stop, tau <= {T_MAX}); f = dt/dt_crit bisected (8 halvings) "
         "between the largest stable and the smallest unstable factor (unstable: the energy guard "

@@ -32,10 +32,11 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from ._outputs import diagnose
-from ._params import CollisionParams, Mesh
-from ._scene import Scene, ring_on_beam
-from ._simulate import RESULT_NAMES, Settings, simulate
+from .._outputs import diagnose
+from .._params import CollisionParams, Mesh
+from .._results import RESULTS
+from .._scene import Scene, ring_on_beam
+from .._simulate import Settings, simulate
 
 PAPER_MESH = dict(ring_segments=15, beam_contact_segments=20, beam_outer_segments=5)
 QUICK_MESH = dict(ring_segments=6, beam_contact_segments=8, beam_outer_segments=2)
@@ -279,7 +280,7 @@ def run_scene(entry: StabilityScene, quick: bool = False) -> dict[str, Any]:
     wall = time.perf_counter() - start
     return _row(
         entry,
-        RESULT_NAMES[int(sol.result)],
+        RESULTS(int(sol.result)).status,
         t_end=float(sol.t_end),
         steps=int(sol.steps),
         error=float(sol.energy_balance_error),
@@ -345,10 +346,13 @@ def verdict(row: dict[str, Any]) -> str:
     if expect == REFUSED:
         ok = result == REFUSED and row["cause"] in row["message"]
     elif expect == STOPPED:
-        ok = result in (RESULT_NAMES[2], RESULT_NAMES[3]) and row["cause"] in row["message"]
+        ok = (
+            result in (RESULTS.non_finite.status, RESULTS.energy_balance_broken.status)
+            and row["cause"] in row["message"]
+        )
     else:
         ok = (
-            result in (RESULT_NAMES[0], RESULT_NAMES[1])
+            result in (RESULTS.settled.status, RESULTS.time_limit.status)
             and row["finite"]
             and abs(row["energy_balance_error"]) <= row["tolerance"]
             # energy may be left only as a rebound: the structures apart when the run ends
@@ -366,7 +370,7 @@ def _run_float32(entry: StabilityScene, quick: bool) -> dict[str, Any]:
     code = (
         "import json, sys, warnings; warnings.simplefilter('ignore');"
         "import jax, msfd_jax; jax.config.update('jax_enable_x64', False);"
-        "from msfd_jax import _stability as st;"
+        "from msfd_jax.studies import stability as st;"
         f"print(json.dumps(st._float32_child({entry.name!r}, {quick!r})))"
     )
     start = time.perf_counter()

@@ -6,7 +6,7 @@ plate (v = 0.02, as Fig. 17c) with 15, 16 and 32 segments and compares each with
 rigid-plastic curve of the Appendix (incremental limit analysis) on the same polygon (16, 32)
 and on the fine one (240). Writes benchmarks/results/plate_mesh.md.
 
-    python benchmarks/plate_mesh_study.py
+    python -m msfd_jax.studies.scripts.plate_mesh_study
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 
 import msfd_jax as m
-from msfd_jax._appendix import half_ring_plate_curve
-from msfd_jax._reproduce.quasistatic import (
+from msfd_jax.studies.references.appendix import half_ring_plate_curve
+from msfd_jax.studies.reproduce.quasistatic import (
     PLATE_YMAX,
     WINDOWS,
     _run_driven,
@@ -27,7 +27,7 @@ from msfd_jax._reproduce.quasistatic import (
     work_mean,
 )
 
-RESULTS = Path(__file__).parent / "results"
+RESULTS = Path(__file__).resolve().parents[3] / "benchmarks" / "results"
 SPEED = 0.02
 
 
@@ -43,10 +43,12 @@ def main() -> None:
     lines = [
         "# Ring on plate: mesh and hinge-site study (Fig. 17c)",
         "",
-        "Written by `python benchmarks/plate_mesh_study.py`. MS-FD half ring (E/Y = 500, "
+        "Written by `python -m msfd_jax.studies.scripts.plate_mesh_study`. "
+        "MS-FD half ring (E/Y = 500, "
         f"R/h_r = 10) driven at v = {SPEED:g}; work-averaged whole-ring load p per window of "
         "y_r; rigid-plastic (RP) curves of the Appendix by incremental limit analysis with n "
-        "hinge sites on the quarter ring (`msfd_jax._appendix.half_ring_plate_curve(n)`).",
+        "hinge sites on the quarter ring "
+        "(`msfd_jax.studies.references.appendix.half_ring_plate_curve(n)`).",
         "",
         "| curve | " + " | ".join(f"{a:.2f}-{b:.2f}" for a, b in WINDOWS) + " | peak p | at y_r |",
         "|---|" + "---|" * (len(WINDOWS) + 2),

@@ -20,10 +20,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._params import CollisionParams, Mesh, validate
-from .._scene import ring_on_beam
-from .._simulate import RESULT_NAMES, Settings, simulate
-from .._sweep import SweepTable, collisions, step_bound, sweep
+from ..._params import CollisionParams, Mesh, validate
+from ..._results import RESULTS
+from ..._scene import ring_on_beam
+from ..._simulate import Settings, simulate
+from ..._sweep import SweepTable, collisions, step_bound, sweep
 
 RING, BEAM = 0, 1  # chain order of ring_on_beam
 THICKEST = 5.0  # the largest h_b/h_r of the reproduction (Fig. 10): the smallest stable step
@@ -42,7 +43,7 @@ def max_steps(quick: bool, settings: Settings = Settings()) -> int:
     """One step bound per mesh and settings (`step_bound` of the thickest beam)."""
     key = mesh(quick)
     if key not in _CRITICAL:
-        from .._dynamics import critical_step
+        from ..._dynamics import critical_step
 
         scene = ring_on_beam(CollisionParams(thickness_ratio=THICKEST), key)
         _CRITICAL[key] = float(eqx.filter_jit(critical_step)(scene))
@@ -165,7 +166,7 @@ def _one(sol, j: int, params: dict[str, float]) -> Run:
     history["contact_pairs"] = pick(sol.history["contact_pairs"][0])[keep]
     return Run(
         params=params,
-        status=RESULT_NAMES[int(pick(sol.result))],
+        status=RESULTS(int(pick(sol.result))).status,
         t_end=t_end,
         k0=float(pick(sol.k0)),
         ts=ts[keep],

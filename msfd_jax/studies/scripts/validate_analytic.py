@@ -4,20 +4,21 @@
    l_b = 3 in ring units, E/Y = 2000) against Eq. 25, with and without axial constraint.
 2. Parkes' cantilever struck at the tip (mass ratios 10 and 1, W_f / L ~ 0.2), E/Y = 1e3 ... 1e6.
 
-The work is done by `msfd_jax._reproduce.quasistatic.reproduce_analytic` (also run by
+The work is done by `msfd_jax.studies.reproduce.quasistatic.reproduce_analytic` (also run by
 `msfd reproduce`); this prints its tables and writes docs/figures/eq25_parkes.png.
 
-    python benchmarks/validate_analytic.py [--quick] [--mesh-study]
+    python -m msfd_jax.studies.scripts.validate_analytic [--quick] [--mesh-study]
 """
 
 from __future__ import annotations
 
 import argparse
 import pathlib
+import sys
 
-from msfd_jax._reproduce import quasistatic as q
+from msfd_jax.studies.reproduce import closed_forms as c
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = pathlib.Path(__file__).resolve().parents[3]
 
 
 def main():
@@ -26,11 +27,14 @@ def main():
     parser.add_argument("--mesh-study", action="store_true", help="also 40, 80 segments")
     parser.add_argument("--figures", type=pathlib.Path, default=ROOT / "docs" / "figures")
     args = parser.parse_args()
-    print(q.reproduce_analytic(args.quick, args.figures).markdown())
+    given = " ".join(sys.argv[1:])
+    command = f"python -m msfd_jax.studies.scripts.validate_analytic {given}".strip()
+    print(f"Produced by `{command}`.\n")
+    print(c.reproduce_analytic(args.quick, args.figures).markdown())
     if args.mesh_study:
         for segments, moduli in ((40, (1.0e4, 1.0e5)), (80, (1.0e4,))):
-            study = q.parkes_study(segments=segments, moduli=moduli, max_steps=2**21)
-            print("\n".join(q.parkes_table(study)))
+            study = c.parkes_study(segments=segments, moduli=moduli, max_steps=2**21)
+            print("\n".join(c.parkes_table(study)))
 
 
 if __name__ == "__main__":

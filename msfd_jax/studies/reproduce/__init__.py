@@ -27,9 +27,13 @@ FIGURES: dict[str, tuple[str, str, str]] = {
     "fig17": ("quasistatic", "reproduce_fig17", "Fig. 17c: half ring on a rigid plate"),
     "fig18_22": ("quasistatic", "reproduce_fig18_22", "Fig. 18 and 22: quasi-static curves"),
     "fig19": ("energy", "reproduce_fig19", "Fig. 19: energy histories, restoring instant"),
-    "fig20_21": ("energy", "reproduce_fig20_21", "Fig. 20-21: mass and velocity effects"),
-    "fig23_24": ("energy", "reproduce_fig23_24", "Fig. 23-24: mass and velocity, h_b/h_r = 1"),
-    "analytic": ("quasistatic", "reproduce_analytic", "Eq. 25 and Parkes' cantilever"),
+    "fig20_21": ("mass_velocity", "reproduce_fig20_21", "Fig. 20-21: mass and velocity effects"),
+    "fig23_24": (
+        "mass_velocity",
+        "reproduce_fig23_24",
+        "Fig. 23-24: mass and velocity, h_b/h_r = 1",
+    ),
+    "analytic": ("closed_forms", "reproduce_analytic", "Eq. 25 and Parkes' cantilever"),
 }
 
 

@@ -3,7 +3,7 @@
 A figure module exposes ``reproduce(quick: bool, figures_dir: Path) -> Reproduction``: it runs
 the collisions it needs (small mesh and few points when ``quick``), saves its figure(s) under
 ``figures_dir`` and returns the numbers, a markdown table and one `Finding` per statement of
-the paper it checks. The runner (``msfd_jax._reproduce.run``) collects them into
+the paper it checks. The runner (``msfd_jax.studies.reproduce.run``) collects them into
 ``reproduce.md`` / ``reproduce.json``; ``docs/validation.md`` quotes those files.
 """
 

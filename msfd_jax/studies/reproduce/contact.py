@@ -90,7 +90,7 @@ def segment_frequencies(quick: bool) -> dict[str, float]:
     Bending: a bar of mass l turning on rotational springs EI / l: sqrt(EI) / l^2, with
     EI = (E/Y)(h_r/R) / 3 in units of M_pr R. Order-of-magnitude estimates (Fig. 15b).
     """
-    from .._params import CollisionParams
+    from ..._params import CollisionParams
 
     p = CollisionParams()
     beta, slender = float(p.modulus_ratio), float(p.slenderness)

@@ -1,10 +1,10 @@
 """The paper's quasi-static results: Fig. 17c, Fig. 18/22, Eq. 25 and Parkes (issue 3).
 
-Runs `msfd_jax._reproduce.quasistatic` (paper mesh unless --quick), writes the figures
+Runs `msfd_jax.studies.reproduce.quasistatic` (paper mesh unless --quick), writes the figures
 docs/figures/{fig17c,fig18_fig22,eq25_parkes}.png and the markdown benchmarks/results/
 quasistatic.md (+ quasistatic.json with the numbers).
 
-    python benchmarks/reproduce_quasistatic.py [--quick]    # ~5 min on 2 cores (quick ~2 min)
+    python -m msfd_jax.studies.scripts.reproduce_quasistatic [--quick]  # ~5 min (quick ~2 min)
 """
 
 from __future__ import annotations
@@ -13,9 +13,10 @@ import argparse
 import json
 from pathlib import Path
 
-from msfd_jax._reproduce import quasistatic as q
+from msfd_jax.studies.reproduce import closed_forms as c
+from msfd_jax.studies.reproduce import quasistatic as q
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def main():
@@ -26,12 +27,13 @@ def main():
     args = parser.parse_args()
     results = [
         f(args.quick, args.figures)
-        for f in (q.reproduce_fig17, q.reproduce_fig18_22, q.reproduce_analytic)
+        for f in (q.reproduce_fig17, q.reproduce_fig18_22, c.reproduce_analytic)
     ]
     head = [
         "# Quasi-static results of the paper (Fig. 17c, 18, 22; Eq. 25; Parkes)",
         "",
-        f"Written by `python benchmarks/reproduce_quasistatic.py{' --quick' if args.quick else ''}`"
+        "Written by `python -m msfd_jax.studies.scripts.reproduce_quasistatic"
+        f"{' --quick' if args.quick else ''}`"
         "; figures in docs/figures/.",
         "",
     ]

@@ -5,8 +5,8 @@ beam (0.5, free) and a thick constrained beam (4.0), each on the paper's mesh re
 x4 (every segment count multiplied; the step follows the computed stability limit).
 Writes benchmarks/results/convergence.md.
 
-    python benchmarks/convergence.py            # x1, x2, x4 (several minutes)
-    python benchmarks/convergence.py --factors 1 2
+    python -m msfd_jax.studies.scripts.convergence            # x1, x2, x4 (several minutes)
+    python -m msfd_jax.studies.scripts.convergence --factors 1 2
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numpy as np
 
 import msfd_jax as m
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 CASES = {
     "showcase (2.5, constrained)": m.CollisionParams(),
     "thin free beam (0.5, free)": m.CollisionParams(thickness_ratio=0.5, axial_constraint=0.0),
@@ -36,7 +36,8 @@ def main(argv=None) -> int:
     lines = [
         "# Mesh convergence of the energy partition",
         "",
-        f"Produced by `python benchmarks/convergence.py` ({time.strftime('%Y-%m-%d')}, 2-core "
+        "Produced by `python -m msfd_jax.studies.scripts.convergence` "
+        f"({time.strftime('%Y-%m-%d')}, 2-core "
         "CPU). Dissipated fractions of K0 and their change from the finest mesh; the "
         "kinetic/elastic split at the stop is a vibration phase and is not compared.",
         "",

@@ -5,7 +5,7 @@
 - the settle-window study: dissipated fractions against the stop time for three step sizes;
 - contact dissipation of the constrained h_b/h_r = 1 collision at v0 = 0.4, 0.82, 1.6.
 
-    python benchmarks/numerics_checks.py     # ~3 min on the 2-core machine
+    python -m msfd_jax.studies.scripts.numerics_checks     # ~3 min on the 2-core machine
 Writes benchmarks/results/numerics_checks.md.
 """
 
@@ -21,7 +21,7 @@ import numpy as np
 
 import msfd_jax as m
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 SMALL = m.Mesh(6, 8, 2)
 
 
@@ -147,7 +147,8 @@ def main() -> int:
     lines = [
         "# Numerics checks quoted in docs/model.md and the issue notes",
         "",
-        f"Produced by `python benchmarks/numerics_checks.py` ({time.strftime('%Y-%m-%d')}, "
+        "Produced by `python -m msfd_jax.studies.scripts.numerics_checks` "
+        f"({time.strftime('%Y-%m-%d')}, "
         "2-core CPU, not pinned).",
         "",
     ]

@@ -11,9 +11,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from . import common
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ._reproduce import FIGURES
+    from ..studies.reproduce import FIGURES
 
     known = ", ".join(FIGURES)
     parser.add_argument(
@@ -40,13 +42,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def handle(args: argparse.Namespace) -> int:
-    from . import cli
-    from ._reproduce import FIGURES, run
+    from ..studies.reproduce import FIGURES, run
 
     keys = list(FIGURES) if args.only is None else args.only
     unknown = [k for k in keys if k not in FIGURES]
     if unknown:
-        raise cli.UsageError(f"unknown figure {', '.join(unknown)}; known: {', '.join(FIGURES)}")
+        raise common.UsageError(f"unknown figure {', '.join(unknown)}; known: {', '.join(FIGURES)}")
     if args.quick:
         base = Path("reproduce-quick")
         figures = args.figures or base / "figures"
@@ -55,7 +56,7 @@ def handle(args: argparse.Namespace) -> int:
         figures = args.figures or Path("docs") / "figures"
         results = args.results or Path("benchmarks") / "results" / "reproduce"
     if not args.no_cache:
-        cli.enable_compilation_cache()
+        common.enable_compilation_cache()
     records = run(keys, args.quick, figures, results, progress=not args.no_progress)
     failed = [r.key for r in records if "error" in r.numbers]
     findings = [f for r in records for f in r.findings]
@@ -67,4 +68,4 @@ def handle(args: argparse.Namespace) -> int:
         f"{agree} findings agree, {disagree} disagree; report: {results / 'reproduce.md'}, "
         f"figures: {figures}"
     )
-    return cli.EXIT_SOLVE if failed else cli.EXIT_OK
+    return common.EXIT_SOLVE if failed else common.EXIT_OK

@@ -17,9 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ._outputs import FRACTION_KEYS
-from ._params import CollisionParams
-from ._sweep import DEFAULT_CHUNK, INPUTS, SweepTable, sweep
+from .._outputs import FRACTION_KEYS
+from .._params import CollisionParams
+from .._sweep import DEFAULT_CHUNK, INPUTS, SweepTable, sweep
+from . import common
 
 _CONSTRAINT = {"held": [1.0], "free": [0.0], "both": [0.0, 1.0]}
 _SUMMARY = (*FRACTION_KEYS[:5], "t_end", "status")
@@ -42,13 +43,12 @@ def values(text: str) -> list[float]:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from . import cli  # imported here: cli.py imports this module to register the command
 
     group = parser.add_argument_group(
         "grid (lists x,y,... or ranges a:b:n; unset groups keep the paper's Fig. 13 value)"
     )
     defaults = CollisionParams()
-    for field, (flag, text) in cli._PARAMS.items():
+    for field, (flag, text) in common.PARAMS.items():
         default = float(getattr(defaults, field))
         group.add_argument(
             flag, type=values, dest=field, metavar="VALUES", help=f"{text} (default {default:g})"
@@ -65,7 +65,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="PATH",
         help="a list of collisions instead of a grid: CSV with a header of input names",
     )
-    cli.add_numerics_arguments(parser)
+    common.add_numerics_arguments(parser)
     # a sweep keeps final values only: two history samples and no shapes unless asked
     parser.set_defaults(history_points=2, shape_times=())
     batch = parser.add_argument_group("batching")
@@ -86,9 +86,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def grid_from_args(args: argparse.Namespace):
     """The sweep specification: a dict of value lists (grid) or a list of dicts (CSV)."""
-    from . import cli
 
-    given = {k: getattr(args, k) for k in cli._PARAMS if getattr(args, k) is not None}
+    given = {k: getattr(args, k) for k in common.PARAMS if getattr(args, k) is not None}
     if args.from_csv is None:
         return {**given, "axial_constraint": _CONSTRAINT[args.axial_constraint]}
     if given:
@@ -103,28 +102,25 @@ def _use_host_devices(n: int, shard: bool) -> None:
 
     from jax._src import xla_bridge
 
-    from . import cli
-
     if not shard:
-        raise cli.UsageError("--host-devices needs --shard (it only splits sharded chunks)")
+        raise common.UsageError("--host-devices needs --shard (it only splits sharded chunks)")
     if n < 1 or n > (os.cpu_count() or 1):
-        raise cli.UsageError(f"--host-devices must be in 1..{os.cpu_count()} (cores), got {n}")
+        raise common.UsageError(f"--host-devices must be in 1..{os.cpu_count()} (cores), got {n}")
     if xla_bridge.backends_are_initialized():
-        raise cli.UsageError("--host-devices must be set before JAX starts (use XLA_FLAGS)")
+        raise common.UsageError("--host-devices must be set before JAX starts (use XLA_FLAGS)")
     flag = f"--xla_force_host_platform_device_count={n}"
     os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {flag}".strip()
 
 
 def handle(args: argparse.Namespace) -> int:
-    from . import cli
 
     if args.host_devices is not None:
         _use_host_devices(args.host_devices, args.shard)
-    spec = cli.checked(grid_from_args, args)
-    mesh = cli.checked(cli.mesh_from_args, args)
-    settings = cli.checked(cli.settings_from_args, args)
+    spec = common.checked(grid_from_args, args)
+    mesh = common.checked(common.mesh_from_args, args)
+    settings = common.checked(common.settings_from_args, args)
     if not args.no_cache:
-        cli.enable_compilation_cache()
+        common.enable_compilation_cache()
     try:
         table = sweep(
             spec,
@@ -137,7 +133,7 @@ def handle(args: argparse.Namespace) -> int:
             shard=args.shard,
         )
     except (ValueError, TypeError) as error:  # raised before anything is compiled
-        raise cli.UsageError(cli._name_the_option(str(error))) from None
+        raise common.UsageError(common.name_the_option(str(error))) from None
     if args.csv is not None:
         table.to_csv(args.csv)
     if args.netcdf is not None:
@@ -148,7 +144,7 @@ def handle(args: argparse.Namespace) -> int:
         print(summary(table))
         if args.csv is not None:
             print(f"table written to {args.csv}")
-    return cli.EXIT_SOLVE if table.failed.any() else cli.EXIT_OK
+    return common.EXIT_SOLVE if table.failed.any() else common.EXIT_OK
 
 
 def _write_netcdf(table: SweepTable, path: Path) -> None:

@@ -9,11 +9,11 @@ Parts (each writes its own JSON, the markdown is rebuilt from every JSON present
 - ``mesh``: the dissipated fractions on the paper mesh refined x4 and x8, extending
   benchmarks/results/convergence.md (benchmarks/results/accuracy_mesh.json).
 
-    taskset -c 1 python benchmarks/accuracy.py --parts study            # ~30-60 min
-    python benchmarks/accuracy.py --parts study --quick                 # coarse mesh, minutes
-    python benchmarks/accuracy.py --parts stability --candidate 0.8
-    python benchmarks/accuracy.py --parts mesh --factors 8
-    python benchmarks/accuracy.py --parts report                        # markdown + figures only
+    taskset -c 1 python -m msfd_jax.studies.scripts.accuracy --parts study  # ~30-60 min
+    python -m msfd_jax.studies.scripts.accuracy --parts study --quick  # coarse mesh, minutes
+    python -m msfd_jax.studies.scripts.accuracy --parts stability --candidate 0.8
+    python -m msfd_jax.studies.scripts.accuracy --parts mesh --factors 8
+    python -m msfd_jax.studies.scripts.accuracy --parts report  # markdown + figures only
 
 Timings: pin to one core (``taskset -c 1``) and rerun on a quiet machine; every timed run
 records ``os.getloadavg()`` so that a loaded run can be recognised.
@@ -30,9 +30,9 @@ from pathlib import Path
 
 import jax
 
-from msfd_jax import _accuracy as A
+from msfd_jax.studies import accuracy as A
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 RESULTS = ROOT / "benchmarks" / "results"
 FIGURES = ROOT / "docs" / "figures"
 
@@ -42,7 +42,8 @@ def _meta() -> dict:
         machine=f"{platform.node()} ({platform.machine()}, {platform.processor() or 'cpu'})",
         date=time.strftime("%Y-%m-%d %H:%M %Z"),
         jax=jax.__version__,
-        command="python benchmarks/accuracy.py " + " ".join(__import__("sys").argv[1:]),
+        command="python -m msfd_jax.studies.scripts.accuracy "
+        + " ".join(__import__("sys").argv[1:]),
     )
 
 
@@ -106,7 +107,7 @@ def report() -> str:
         lines.append("")
     stab = _load("accuracy_stability.json")
     if stab:
-        from msfd_jax import _stability
+        from msfd_jax.studies import stability as _stability
 
         lines += [
             f"## Stability catalogue at the candidate step safety = {stab['candidate']}",

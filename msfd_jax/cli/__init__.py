@@ -1,0 +1,101 @@
+"""Command line ``msfd``: one module per subcommand, registered in `COMMANDS`.
+
+``run`` simulates one collision, ``sweep`` a batch, ``bench`` and ``reproduce`` run the
+studies (`msfd_jax.studies`), ``tune`` comes from `optimise`. Each subcommand module gives
+``add_arguments(parser)`` and ``handle(args) -> exit code``; what they share (argument groups,
+exit codes, `UsageError`, the compile cache) is the leaf `msfd_jax.cli.common`, which imports
+no subcommand.
+
+Exit codes: 0 success, 2 bad input (argparse or parameter validation), 3 failed solve
+(``bench``: 1 some row not as expected; ``tune``: 4 target not met).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable, Sequence
+
+from . import bench, reproduce, run, sweep, tune
+from .common import (
+    EXIT_OK,
+    EXIT_SOLVE,
+    EXIT_USAGE,
+    UsageError,
+    add_collision_arguments,
+    add_numerics_arguments,
+    checked,
+    collision_from_args,
+    enable_compilation_cache,
+    mesh_from_args,
+    settings_from_args,
+)
+from .run import report
+
+__all__ = [
+    "COMMANDS",
+    "EXIT_OK",
+    "EXIT_SOLVE",
+    "EXIT_USAGE",
+    "UsageError",
+    "add_collision_arguments",
+    "add_numerics_arguments",
+    "build_parser",
+    "checked",
+    "collision_from_args",
+    "enable_compilation_cache",
+    "main",
+    "mesh_from_args",
+    "report",
+    "settings_from_args",
+]
+
+COMMANDS: dict[str, tuple[str, Callable, Callable]] = {
+    "run": (
+        "simulate one collision (default: the paper's Fig. 13 showcase)",
+        run.add_arguments,
+        run.handle,
+    ),
+    "bench": ("recorded studies: msfd bench stability", bench.add_arguments, bench.handle),
+    "sweep": (
+        "run a grid or list of collisions, batched (vmap)",
+        sweep.add_arguments,
+        sweep.handle,
+    ),
+    "reproduce": (
+        "regenerate the paper's Sect. 4 figures and numbers",
+        reproduce.add_arguments,
+        reproduce.handle,
+    ),
+    "tune": (
+        "tune the beam thickness to a target energy split",
+        tune.add_arguments,
+        tune.handle,
+    ),
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="msfd", description="Ring-on-beam collisions with the MS-FD model (Ruan & Yu 2003)."
+    )
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, (text, add_arguments, handler) in COMMANDS.items():
+        sub = commands.add_parser(name, help=text, description=text)
+        add_arguments(sub)
+        sub.set_defaults(handler=handler)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``msfd``; returns the exit code (0 ok, 2 bad input, 3 failed solve)."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exit_:  # argparse has printed its message
+        return EXIT_OK if exit_.code is None else int(exit_.code)
+    try:
+        return args.handler(args)
+    except UsageError as error:
+        print(f"msfd: error: {error}", file=sys.stderr)
+        return EXIT_USAGE
