@@ -3,7 +3,7 @@
 Parts (each writes its own JSON, the markdown is rebuilt from every JSON present):
 
 - ``study``: error against wall time for three collisions and every method
-  (msfd_jax/_accuracy.py; benchmarks/results/accuracy.json, docs/figures/accuracy_*.png);
+  (msfd_jax/studies/accuracy/; benchmarks/results/accuracy.json, docs/figures/accuracy_*.png);
 - ``stability``: the stability catalogue's finishing scenes at a candidate default step
   (benchmarks/results/accuracy_stability.json);
 - ``mesh``: the dissipated fractions on the paper mesh refined x4 and x8, extending
@@ -113,7 +113,7 @@ def report() -> str:
             f"## Stability catalogue at the candidate step safety = {stab['candidate']}",
             "",
             f"Produced by `{stab['command']}` ({stab['date']}): every finishing scene of "
-            "msfd_jax/_stability.py that uses the default step, run at the candidate "
+            "msfd_jax/studies/stability.py that uses the default step, run at the candidate "
             f"({'quick' if stab['quick'] else 'paper'} mesh form).",
             "",
             _stability.markdown_table(stab["rows"]),
