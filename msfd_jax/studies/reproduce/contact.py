@@ -33,7 +33,6 @@ from pathlib import Path
 import numpy as np
 
 from . import _batch as b
-from . import _draw_contact as draw
 from ._common import Finding, Reproduction
 
 WINDOW = 0.02
@@ -252,6 +251,8 @@ def judge_fig15(numbers: dict) -> list[Finding]:
 
 
 def reproduce_fig15(quick: bool, figures_dir: Path) -> Reproduction:
+    from . import _draw_contact as draw  # matplotlib only when drawing
+
     start = time.perf_counter()
     numbers = compute_fig15(quick)
     published = {k: numbers[k] for k in ("window", "cases", "segment")}
@@ -411,6 +412,8 @@ def judge_fig16(numbers: dict) -> list[Finding]:
 
 
 def reproduce_fig16(quick: bool, figures_dir: Path) -> Reproduction:
+    from . import _draw_contact as draw  # matplotlib only when drawing
+
     start = time.perf_counter()
     numbers = compute_fig16(quick)
     published = (

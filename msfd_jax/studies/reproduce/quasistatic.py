@@ -32,7 +32,6 @@ from msfd_jax.studies.references.appendix import (
     initial_collapse_load,
     paper_phase_one,
 )
-from msfd_jax.studies.reproduce import _draw_quasistatic as draw
 from msfd_jax.studies.reproduce._common import Finding, Reproduction
 
 jax.config.update("jax_enable_x64", True)
@@ -266,6 +265,8 @@ def judge_fig17(numbers: dict) -> list[Finding]:
 
 def reproduce_fig17(quick: bool, figures_dir: Path) -> Reproduction:
     """Fig. 17(c): the MS-FD half ring pressed slowly by a plate against the Appendix."""
+    from . import _draw_quasistatic as draw  # matplotlib only when drawing
+
     t0 = time.perf_counter()
     numbers = compute_fig17(quick)
     return Reproduction(
@@ -465,6 +466,8 @@ def judge_fig18_22(numbers: dict) -> list[Finding]:
 
 def reproduce_fig18_22(quick: bool, figures_dir: Path) -> Reproduction:
     """Fig. 18 (h_b/h_r = 3, free) and Fig. 22 (2.5, constrained): ring and beam, quasi-static."""
+    from . import _draw_quasistatic as draw  # matplotlib only when drawing
+
     t0 = time.perf_counter()
     numbers = compute_fig18_22(quick)
     return Reproduction(
