@@ -3,8 +3,11 @@
 A figure module exposes ``reproduce(quick: bool, figures_dir: Path) -> Reproduction``: it runs
 the collisions it needs (small mesh and few points when ``quick``), saves its figure(s) under
 ``figures_dir`` and returns the numbers, a markdown table and one `Finding` per statement of
-the paper it checks. The runner (``msfd_jax.studies.reproduce.run``) collects them into
-``reproduce.md`` / ``reproduce.json``; ``docs/validation.md`` quotes those files.
+the paper it checks. Each is a thin composition of three parts: ``compute_*(quick)`` (the runs
+and their numbers, no matplotlib), ``draw_*(numbers, figures_dir)`` (rendering only; the figure
+names) and ``table_*`` / ``judge_*(numbers)`` (the markdown table and the findings, pure
+functions of the computed numbers). The runner (``msfd_jax.studies.reproduce.run``) collects
+them into ``reproduce.md`` / ``reproduce.json``; ``docs/validation.md`` quotes those files.
 """
 
 from __future__ import annotations

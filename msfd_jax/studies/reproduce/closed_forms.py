@@ -2,7 +2,9 @@
 
 `reproduce_analytic` runs both (``msfd reproduce --only analytic``; the core of
 ``python -m msfd_jax.studies.scripts.validate_analytic``). The closed forms themselves are
-`msfd_jax.studies.references.analytic`. Units as in `quasistatic`.
+`msfd_jax.studies.references.analytic`. Units as in `quasistatic`. `compute_analytic` runs
+both, `draw_analytic` renders them, `table_analytic` and `judge_analytic` write the table and
+the verdicts from the numbers alone; `reproduce_analytic` composes them.
 """
 
 from __future__ import annotations
@@ -13,7 +15,6 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
-from matplotlib.figure import Figure
 
 import msfd_jax as m
 from msfd_jax.studies.references.analytic import (
@@ -188,6 +189,8 @@ def parkes_study(segments=PARKES_SEGMENTS, moduli=PARKES_MODULI, max_steps=2**20
 
 
 def _analytic_figure(curves, parkes, path):
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(10, 4))
     a, b = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
     yy = np.linspace(0.0, EQ25_YMAX * SPAN, 301)
@@ -253,12 +256,36 @@ def parkes_table(parkes) -> list[str]:
     return lines
 
 
-def reproduce_analytic(quick: bool, figures_dir: Path) -> Reproduction:
-    """Eq. 25 against the slowly driven MS-FD beam; Parkes' cantilever against MS-FD."""
-    t0 = time.perf_counter()
+def compute_analytic(quick: bool) -> dict:
+    """Eq. 25's slow beams (``curves``, ``points``, ``intervals``, `eq25_study`) and Parkes'
+    cases (``parkes``, `parkes_study`; low E/Y only when `quick`), and ``quick``."""
     curves, points, intervals = eq25_study()
     parkes = parkes_study(moduli=QUICK_PARKES_MODULI if quick else PARKES_MODULI)
-    _analytic_figure(curves, parkes, figures_dir / "eq25_parkes.png")
+    return dict(quick=quick, curves=curves, points=points, intervals=intervals, parkes=parkes)
+
+
+def published_analytic(numbers: dict) -> dict:
+    """The numbers of ``reproduce.json``."""
+    points, intervals, parkes = numbers["points"], numbers["intervals"], numbers["parkes"]
+    return dict(
+        eq25_points=points,
+        eq25_intervals=[dict(r, interval=list(r["interval"])) for r in intervals],
+        parkes={
+            f"{g:g}": dict(exact=exact.final_tip_deflection, rows=rows)
+            for (g, _), (exact, rows) in parkes.items()
+        },
+    )
+
+
+def draw_analytic(numbers: dict, figures_dir: Path) -> list[str]:
+    """``eq25_parkes.png``: Eq. 25's beams and Parkes' errors against E/Y."""
+    _analytic_figure(numbers["curves"], numbers["parkes"], figures_dir / "eq25_parkes.png")
+    return ["eq25_parkes.png"]
+
+
+def table_analytic(numbers: dict) -> str:
+    """The markdown tables: Eq. 25 by point and by interval, then Parkes'."""
+    points, intervals, parkes = numbers["points"], numbers["intervals"], numbers["parkes"]
     table = [
         f"Slow mid-span drive (v = {BEAM_DRIVE:g}) of the Fig. 12b beam (m_p = 1, n_p = 40, "
         f"l_b = 3, E/Y = {BEAM_MODULUS:g}, 12 segments); p = 2 x reaction; window = mean over "
@@ -285,9 +312,15 @@ def reproduce_analytic(quick: bool, figures_dir: Path) -> Reproduction:
             f"{r['msfd']:.5f} | {r['analytic']:.5f} | {r['error']:+.1e} |"
         )
     table += [""] + parkes_table(parkes)
+    return "\n".join(table)
+
+
+def judge_analytic(numbers: dict) -> list[Finding]:
+    """The verdicts on Eq. 25 and on Parkes' cantilever (n/a when quick)."""
+    quick, intervals, parkes = numbers["quick"], numbers["intervals"], numbers["parkes"]
     worst_interval = max(abs(r["error"]) for r in intervals)
     stiffest = {g: rows[-1] for (g, _), (_, rows) in parkes.items()}  # highest E/Y run
-    findings = [
+    return [
         Finding(
             "Eq. 25 / Fig. 12b",
             "A rigid-perfectly-plastic axially constrained beam under a central load follows "
@@ -311,20 +344,18 @@ def reproduce_analytic(quick: bool, figures_dir: Path) -> Reproduction:
             "striker's travelling hinge carries the larger error (quick: low E/Y only, n/a).",
         ),
     ]
-    numbers = dict(
-        eq25_points=points,
-        eq25_intervals=[dict(r, interval=list(r["interval"])) for r in intervals],
-        parkes={
-            f"{g:g}": dict(exact=exact.final_tip_deflection, rows=rows)
-            for (g, _), (exact, rows) in parkes.items()
-        },
-    )
+
+
+def reproduce_analytic(quick: bool, figures_dir: Path) -> Reproduction:
+    """Eq. 25 against the slowly driven MS-FD beam; Parkes' cantilever against MS-FD."""
+    t0 = time.perf_counter()
+    numbers = compute_analytic(quick)
     return Reproduction(
         key="analytic",
         title="Eq. 25 and Parkes' cantilever: slow and struck MS-FD runs against closed forms",
-        figures=["eq25_parkes.png"],
-        table="\n".join(table),
-        numbers=numbers,
-        findings=findings,
+        figures=draw_analytic(numbers, figures_dir),
+        table=table_analytic(numbers),
+        numbers=published_analytic(numbers),
+        findings=judge_analytic(numbers),
         wall_time_s=time.perf_counter() - t0,
     )

@@ -19,6 +19,10 @@ Definitions.
 Fig. 16: h_b/h_r = 1, beam constrained (the paper's case): g = 10 at v0 from 0.3 to 2; g from
 0.5 to 70 at v0 = 0.82 (the paper's velocity) and from 2 to 40 at v0 = 1.6 (where contact
 dissipates). The same runs serve Fig. 23-24 (`energy.py`).
+
+Per figure, `compute_*` runs and measures, `table_*` and `judge_*` write the table and the
+verdicts from those numbers alone, and `_draw_contact` renders the figures; `reproduce_*`
+composes them.
 """
 
 from __future__ import annotations
@@ -27,7 +31,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from . import _batch as b
 from ._common import Finding, Reproduction
@@ -102,67 +105,59 @@ def segment_frequencies(quick: bool) -> dict[str, float]:
     )
 
 
-def reproduce_fig15(quick: bool, figures_dir: Path) -> Reproduction:
-    start = time.perf_counter()
+def _fig15_case(row: dict, fine: b.Run, whole: b.Run) -> tuple[dict, dict]:
+    """One case of Fig. 15: (its numbers, its force curves for the figure)."""
+    force_f = fine.history["contact_force"].sum(-1)
+    force_w = whole.history["contact_force"].sum(-1)
+    avg_w = moving_average(whole.ts, force_w)
+    n_fine, _ = separations(force_f)
+    n_whole, closed = separations(force_w)
+    n_avg, closed_avg = separations(avg_w, 0.01 * avg_w.max())
+    stage = fine.ts <= STAGE
+    numbers = dict(
+        case=_label(row),
+        peak_force=float(force_f.max()),
+        peak_time=float(fine.ts[np.argmax(force_f)]),
+        peak_average=float(avg_w.max()),
+        separations_fine=n_fine,
+        separations_whole=n_whole,
+        separations_average=n_avg,
+        last_contact=float(whole.ts[closed].max()) if closed.any() else float("nan"),
+        real_separation=float(whole.ts[closed_avg].max()) if closed_avg.any() else float("nan"),
+        omega=dominant_frequency(fine.ts, force_f),
+        omega_stage=dominant_frequency(fine.ts[stage], force_f[stage], 0.2 * STAGE),
+        status=whole.status,
+        t_end=whole.t_end,
+    )
+    curves = dict(
+        fine_ts=fine.ts,
+        fine_force=force_f,
+        fine_average=moving_average(fine.ts, force_f),
+        whole_ts=whole.ts,
+        whole_force=force_w,
+        whole_average=avg_w,
+    )
+    return numbers, curves
+
+
+def compute_fig15(quick: bool) -> dict:
+    """`FIG15_CASES`, fine and whole runs: per case its numbers (``cases``) and force curves
+    (``curves``, for the figure), with the segment frequencies (``segment``)."""
     rows = list(FIG15_CASES)
     fine = b.histories(rows, quick, b.fine_settings(quick))
     whole = b.histories(rows, quick)
-    fig = Figure(figsize=(13, 3.6 * len(rows)), layout="constrained")
-    axes = fig.subplots(len(rows), 2, squeeze=False)
-    results = []
-    for row, f, w, (ax_a, ax_c) in zip(rows, fine, whole, axes, strict=True):
-        force_f = f.history["contact_force"].sum(-1)
-        force_w = w.history["contact_force"].sum(-1)
-        avg_f = moving_average(f.ts, force_f)
-        avg_w = moving_average(w.ts, force_w)
-        n_fine, _ = separations(force_f)
-        n_whole, closed = separations(force_w)
-        n_avg, closed_avg = separations(avg_w, 0.01 * avg_w.max())
-        last_raw = float(w.ts[closed].max()) if closed.any() else float("nan")
-        last_avg = float(w.ts[closed_avg].max()) if closed_avg.any() else float("nan")
-        omega = dominant_frequency(f.ts, force_f)
-        stage = f.ts <= STAGE
-        omega_stage = dominant_frequency(f.ts[stage], force_f[stage], 0.2 * STAGE)
-        results.append(
-            dict(
-                case=_label(row),
-                peak_force=float(force_f.max()),
-                peak_time=float(f.ts[np.argmax(force_f)]),
-                peak_average=float(avg_w.max()),
-                separations_fine=n_fine,
-                separations_whole=n_whole,
-                separations_average=n_avg,
-                last_contact=last_raw,
-                real_separation=last_avg,
-                omega=omega,
-                omega_stage=omega_stage,
-                status=w.status,
-                t_end=w.t_end,
-            )
-        )
-        ax_a.plot(f.ts, force_f, "k-", lw=0.6, label="raw")
-        ax_a.plot(f.ts, avg_f, "r-", lw=1.5, label=f"moving average ({WINDOW:g})")
-        ax_a.set(
-            xlabel=r"$\tau$",
-            ylabel="contact force $PR/M_{pr}$",
-            title=f"(a) {_label(row)}: tau <= {b.FINE_T_MAX:g}, {n_fine} separations",
-            xlim=(0, b.FINE_T_MAX),
-        )
-        ax_c.plot(
-            w.ts, force_w, "-", color="0.6", lw=0.5, label=f"raw (every {w.ts[1] - w.ts[0]:.0e})"
-        )
-        ax_c.plot(w.ts, avg_w, "r-", lw=1.5, label="moving average")
-        ax_c.axvline(last_avg, color="b", ls="--", lw=1, label=f"real separation {last_avg:.2f}")
-        ax_c.set(
-            xlabel=r"$\tau$",
-            title=f"(c) whole response: {n_whole} separations in the raw force",
-            xlim=(0, min(w.t_end, 1.2 * last_raw + 0.1) if closed.any() else w.t_end),
-        )
-        for ax in (ax_a, ax_c):
-            ax.grid(alpha=0.3)
-            ax.legend(fontsize=8)
-    fig.suptitle("Fig. 15: contact force (half model), g = 10, v0 = 0.82")
-    name = b.save(fig, figures_dir, "fig15.png")
+    cases = [_fig15_case(*run) for run in zip(rows, fine, whole, strict=True)]
+    return dict(
+        window=WINDOW,
+        cases=[numbers for numbers, _ in cases],
+        segment=segment_frequencies(quick),
+        curves=[curves for _, curves in cases],
+    )
+
+
+def table_fig15(numbers: dict) -> str:
+    """The markdown table of the cases and the segment frequencies."""
+    results, seg = numbers["cases"], numbers["segment"]
     text = "\n".join(
         [
             f"Moving average: centred, window {WINDOW:g}. Separations: contact (total force "
@@ -203,14 +198,18 @@ def reproduce_fig15(quick: bool, figures_dir: Path) -> Reproduction:
             ),
         ]
     )
-    show = results[0]
-    seg = segment_frequencies(quick)
-    text += (
+    return text + (
         f"\n\nA ring segment's natural angular frequencies (estimates, this mesh): axial "
         f"sqrt(kappa)/l = {seg['axial']:.0f}, bending sqrt(EI/(mu R^4))(R/l)^2 = "
         f"{seg['bending']:.0f} (l = {seg['length']:.4f} R)."
     )
-    findings = [
+
+
+def judge_fig15(numbers: dict) -> list[Finding]:
+    """The verdicts on Fig. 15a-c (Fig. 13's case; the others quoted alongside)."""
+    results, seg = numbers["cases"], numbers["segment"]
+    show = results[0]
+    return [
         Finding(
             "Fig. 15a-b",
             "the contact force oscillates at a very high frequency, of the order of a "
@@ -249,13 +248,21 @@ def reproduce_fig15(quick: bool, figures_dir: Path) -> Reproduction:
             "the ring rebounds off the beam's vibration and hits again before the last separation",
         ),
     ]
+
+
+def reproduce_fig15(quick: bool, figures_dir: Path) -> Reproduction:
+    from . import _draw_contact as draw  # matplotlib only when drawing
+
+    start = time.perf_counter()
+    numbers = compute_fig15(quick)
+    published = {k: numbers[k] for k in ("window", "cases", "segment")}
     return Reproduction(
         key="fig15",
         title="Fig. 15: contact force, raw and moving-averaged; separations",
-        figures=[name],
-        table=text,
-        numbers=b.jsonable({"window": WINDOW, "cases": results, "segment": seg}),
-        findings=findings,
+        figures=draw.draw_fig15(numbers, figures_dir),
+        table=table_fig15(numbers),
+        numbers=b.jsonable(published),
+        findings=judge_fig15(numbers),
         wall_time_s=time.perf_counter() - start,
     )
 
@@ -296,8 +303,17 @@ def with_g10(table, index: dict, series: str, velocity: float) -> np.ndarray:
     return rows[np.argsort(table["mass_ratio"][rows])]
 
 
-def reproduce_fig16(quick: bool, figures_dir: Path) -> Reproduction:
-    start = time.perf_counter()
+def onset_velocity(velocity: np.ndarray, absolute: np.ndarray) -> list[float]:
+    """[last v0 without contact dissipation below the onset, first v0 with it]."""
+    on = absolute > 1e-6
+    onset = float(velocity[on][0]) if on.any() else float("nan")
+    off = ~on & (velocity < onset)
+    return [float(velocity[off].max()) if off.any() else float("nan"), onset]
+
+
+def compute_fig16(quick: bool) -> dict:
+    """The h_b/h_r = 1 sweep (`h1_table`): its columns, the contact dissipation in M_pr
+    (``contact_absolute``), the series' rows (``series``) and the onset velocity."""
     table, index = h1_table(quick)
     absolute = table["contact"] * table["k0"]  # M_pr
     series = {
@@ -305,42 +321,44 @@ def reproduce_fig16(quick: bool, figures_dir: Path) -> Reproduction:
         "mass (v0 = 0.82)": with_g10(table, index, "mass_v082", 0.82),
         "mass (v0 = 1.6)": with_g10(table, index, "mass_v16", 1.6),
     }
-    fig = Figure(figsize=(11, 4), layout="constrained")
-    ax, ax_v = fig.subplots(1, 2)
-    for (name, rows), style in zip(series.items(), ("o-", "s-", "^-"), strict=True):
-        ax.plot(table["k0"][rows], absolute[rows], style, ms=4, label=f"varying {name}")
-    ax.set(
-        xlabel="initial kinetic energy $K_0$ ($M_{pr}$, half model)",
-        ylabel="contact dissipation ($M_{pr}$)",
-        title="(a) Fig. 16: local contact dissipation, h_b/h_r = 1, constrained",
-    )
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
     v = series["velocity (g = 10)"]
-    ax_v.plot(table["velocity"][v], absolute[v], "o-", ms=4)
-    ax_v.set(xlabel="$v_0$", ylabel="contact dissipation ($M_{pr}$)", title="(b) against v0")
-    ax_v.grid(alpha=0.3)
-    name = b.save(fig, figures_dir, "fig16.png")
+    return dict(
+        k0=table["k0"],
+        mass_ratio=table["mass_ratio"],
+        velocity=table["velocity"],
+        contact=table["contact"],
+        contact_absolute=absolute,
+        status=table["status"],
+        onset_velocity=onset_velocity(table["velocity"][v], absolute[v]),
+        series=series,
+    )
 
+
+def table_fig16(numbers: dict) -> str:
+    """The markdown table: every run of every series."""
     rows_md = []
-    for label, rows in series.items():
+    for label, rows in numbers["series"].items():
         for i in rows:
             rows_md.append(
                 (
                     label,
-                    f"{table['mass_ratio'][i]:g}",
-                    f"{table['velocity'][i]:g}",
-                    f"{table['k0'][i]:.2f}",
-                    f"{absolute[i]:.4f}",
-                    f"{table['contact'][i]:.5f}",
-                    table["status"][i],
+                    f"{numbers['mass_ratio'][i]:g}",
+                    f"{numbers['velocity'][i]:g}",
+                    f"{numbers['k0'][i]:.2f}",
+                    f"{numbers['contact_absolute'][i]:.4f}",
+                    f"{numbers['contact'][i]:.5f}",
+                    numbers["status"][i],
                 )
             )
-    text = b.table(["series", "g", "v0", "K0", "contact (M_pr)", "contact / K0", "status"], rows_md)
+    return b.table(["series", "g", "v0", "K0", "contact (M_pr)", "contact / K0", "status"], rows_md)
+
+
+def judge_fig16(numbers: dict) -> list[Finding]:
+    """The verdicts on Fig. 16: small, mass-independent, growing with v0, non-zero."""
+    table, absolute, series = numbers, numbers["contact_absolute"], numbers["series"]
+    v = series["velocity (g = 10)"]
     vel = table["velocity"][v]
-    on = absolute[v] > 1e-6
-    onset = float(vel[on][0]) if on.any() else float("nan")
-    below = float(vel[~on & (vel < onset)].max()) if (~on & (vel < onset)).any() else float("nan")
+    below, onset = numbers["onset_velocity"]
     slow = series["mass (v0 = 0.82)"]
     fast = series["mass (v0 = 1.6)"]
     spread = (
@@ -348,12 +366,12 @@ def reproduce_fig16(quick: bool, figures_dir: Path) -> Reproduction:
         if absolute[fast].mean() > 0
         else float("nan")
     )
-    findings = [
+    return [
         Finding(
             "Fig. 16",
             "the local contact dissipation is a very small portion of K0",
             f"at most {table['contact'].max():.4f} K0 ({absolute.max():.3f} M_pr) over "
-            f"{len(table)} runs",
+            f"{len(table['k0'])} runs",
             bool(table["contact"].max() < 0.05),
             "the contact springs yield only in the first instants of a fast impact",
         ),
@@ -391,21 +409,27 @@ def reproduce_fig16(quick: bool, figures_dir: Path) -> Reproduction:
             "v0 ~ 0.4, so the contact flattens plastically in the collision stage",
         ),
     ]
+
+
+def reproduce_fig16(quick: bool, figures_dir: Path) -> Reproduction:
+    from . import _draw_contact as draw  # matplotlib only when drawing
+
+    start = time.perf_counter()
+    numbers = compute_fig16(quick)
+    published = (
+        "k0",
+        "mass_ratio",
+        "velocity",
+        "contact_absolute",
+        "status",
+        "onset_velocity",
+    )
     return Reproduction(
         key="fig16",
         title="Fig. 16: local contact dissipation against K0 (h_b/h_r = 1, constrained)",
-        figures=[name],
-        table=text,
-        numbers=b.jsonable(
-            {
-                "k0": table["k0"],
-                "mass_ratio": table["mass_ratio"],
-                "velocity": table["velocity"],
-                "contact_absolute": absolute,
-                "status": table["status"],
-                "onset_velocity": [below, onset],
-            }
-        ),
-        findings=findings,
+        figures=draw.draw_fig16(numbers, figures_dir),
+        table=table_fig16(numbers),
+        numbers=b.jsonable({k: numbers[k] for k in published}),
+        findings=judge_fig16(numbers),
         wall_time_s=time.perf_counter() - start,
     )

@@ -13,6 +13,10 @@ g = 10 (K0 from ~1 to ~9, the paper's axis); 20b the same case at a fixed K0 (Fi
 g = 10 and v0 = 0.82) with v0 from 0.3 to 1.8 (g = 2 K0 / v0^2 - pi/2). Fig. 21 h_b/h_r = 2.5,
 constrained, K0 up to ~6. Fig. 23-24 h_b/h_r = 1, constrained, K0 up to ~25 (the runs of
 Fig. 16).
+
+`compute_fig19` runs and measures Fig. 19's cases, `draw_fig19` renders them, `table_fig19` and
+`judge_fig19` write the table and the verdicts from the numbers alone; `reproduce_fig19`
+composes them (Fig. 20-24: `mass_velocity`).
 """
 
 from __future__ import annotations
@@ -21,7 +25,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from . import _batch as b
 from ._common import Finding, Reproduction
@@ -87,16 +90,26 @@ def alternations(run: b.Run, window: float = 0.05) -> int:
     return int(np.sum(np.diff(kept) != 0))
 
 
-def reproduce_fig19(quick: bool, figures_dir: Path) -> Reproduction:
-    start = time.perf_counter()
+def compute_fig19(quick: bool) -> dict:
+    """`FIG19`'s runs: ``cases`` (parameters, `restoring`, `alternations`), the final ring and
+    beam shares (``shares``) and the runs themselves (``runs``, for the figure)."""
     runs = b.histories(list(FIG19), quick)
+    return dict(
+        cases=[
+            dict(run.params) | restoring(run) | {"alternations": alternations(run)} for run in runs
+        ],
+        shares=[{name: run_share(run, name) for name in ("ring", "beam")} for run in runs],
+        runs=runs,
+    )
+
+
+def draw_fig19(numbers: dict, figures_dir: Path) -> list[str]:
+    """``fig19.png``: each case's energy histories and its restoring instant."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(13, 4.5), layout="constrained")
     axes = fig.subplots(1, 2)
-    stats = []
-    for ax, run, label in zip(axes, runs, "ab", strict=True):
-        r = restoring(run)
-        r["alternations"] = alternations(run)
-        stats.append(r)
+    for ax, run, r, label in zip(axes, numbers["runs"], numbers["cases"], "ab", strict=True):
         for key, style in (
             ("ring_bending", "r-"),
             ("ring_axial", "r:"),
@@ -129,8 +142,12 @@ def reproduce_fig19(quick: bool, figures_dir: Path) -> Reproduction:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, ncols=2)
     fig.suptitle("Fig. 19: energy histories (v0 = 0.82)")
-    name = b.save(fig, figures_dir, "fig19.png")
-    text = "\n".join(
+    return [b.save(fig, figures_dir, "fig19.png")]
+
+
+def table_fig19(numbers: dict) -> str:
+    """The markdown table: restoring instant and energies per case."""
+    return "\n".join(
         [
             f"Restoring instant t_R: first tau after which the stiffer structure (the one "
             f"dissipating less in the end) dissipates less than {RESTORE_TOLERANCE:g} K0 more. "
@@ -153,8 +170,8 @@ def reproduce_fig19(quick: bool, figures_dir: Path) -> Reproduction:
                 ],
                 [
                     (
-                        f"h_b/h_r = {run.params['thickness_ratio']:g}, "
-                        f"{b.constraint_name(run.params['axial_constraint'])}",
+                        f"h_b/h_r = {s['thickness_ratio']:g}, "
+                        f"{b.constraint_name(s['axial_constraint'])}",
                         s["stiffer"],
                         f"{s['t_restore']:.3f}",
                         f"{s['d_stiffer']:.3f} / {s['d_stiffer_final']:.3f}",
@@ -166,15 +183,20 @@ def reproduce_fig19(quick: bool, figures_dir: Path) -> Reproduction:
                         f"{s['t_end']:.2f}",
                         s["status"],
                     )
-                    for run, s in zip(runs, stats, strict=True)
+                    for s in numbers["cases"]
                 ],
             ),
         ]
     )
-    a, c = stats
+
+
+def judge_fig19(numbers: dict) -> list[Finding]:
+    """The verdicts on Fig. 19a (restoring instant, what follows) and Fig. 19b (steps)."""
+    a, c = numbers["cases"]
+    c_shares = numbers["shares"][1]
     after = a["d_softer_final"] - a["d_softer_at_restore"]
     left = a["kinetic_at_restore"] + a["elastic_at_restore"] - a["kinetic_final"]
-    findings = [
+    return [
         Finding(
             "Fig. 19a",
             "h_b/h_r = 3, free: the ring (the stiffer structure) stops dissipating at the "
@@ -212,21 +234,24 @@ def reproduce_fig19(quick: bool, figures_dir: Path) -> Reproduction:
             "h_b/h_r = 1.2, constrained: several steps, the ring and the beam dissipating "
             "alternately (over-hardening)",
             f"{c['alternations']} changes of the faster-dissipating structure; ring "
-            f"{run_share(runs[1], 'ring'):.3f}, beam {run_share(runs[1], 'beam'):.3f} K0",
+            f"{c_shares['ring']:.3f}, beam {c_shares['beam']:.3f} K0",
             bool(c["alternations"] >= 2),
             "the constrained beam hardens by stretching while the ring hardens as it "
             "flattens, so each in turn becomes the weaker",
         ),
     ]
+
+
+def reproduce_fig19(quick: bool, figures_dir: Path) -> Reproduction:
+    start = time.perf_counter()
+    numbers = compute_fig19(quick)
     return Reproduction(
         key="fig19",
         title="Fig. 19: energy histories and the restoring instant (g = 10, v0 = 0.82)",
-        figures=[name],
-        table=text,
-        numbers=b.jsonable(
-            {"cases": [dict(r.params) | s for r, s in zip(runs, stats, strict=True)]}
-        ),
-        findings=findings,
+        figures=draw_fig19(numbers, figures_dir),
+        table=table_fig19(numbers),
+        numbers=b.jsonable({"cases": numbers["cases"]}),
+        findings=judge_fig19(numbers),
         wall_time_s=time.perf_counter() - start,
     )
 

@@ -1,6 +1,8 @@
 """Fig. 10a/b and Fig. 11: the energy partition against h_b/h_r (g = 10, v0 = 0.82).
 
 h_b/h_r from 0.25 to 5 (20 values; 6 quick), beam free and axially constrained, one sweep.
+`compute_fig10` runs it, `draw_fig10` renders the figure, `table_fig10` and `judge_fig10` are
+the report's table and verdicts (pure functions of the numbers); `reproduce` composes them.
 """
 
 from __future__ import annotations
@@ -9,7 +11,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from . import _batch as b
 from ._common import Finding, Reproduction
@@ -44,7 +45,29 @@ def shares(table, n: int) -> dict[str, dict[str, np.ndarray]]:
     return rows
 
 
-def plot(thickness: np.ndarray, rows) -> Figure:
+def compute_fig10(quick: bool) -> dict:
+    """Both sweeps: {"thickness_ratio": h_b/h_r, "free"/"constrained": `shares`}."""
+    thickness = thicknesses(quick)
+    grid = [
+        dict(axial_constraint=a, thickness_ratio=float(h)) for a in (0.0, 1.0) for h in thickness
+    ]
+    return {"thickness_ratio": thickness, **shares(b.partition(grid, quick), len(thickness))}
+
+
+def published_fig10(numbers: dict) -> dict:
+    """The numbers of ``reproduce.json``: the shares flattened to ``{constraint}_{share}``."""
+    rows = {c: numbers[c] for c in ("free", "constrained")}
+    return {
+        "thickness_ratio": numbers["thickness_ratio"],
+        **{f"{c}_{k}": v for c, r in rows.items() for k, v in r.items()},
+    }
+
+
+def draw_fig10(numbers: dict, figures_dir: Path) -> list[str]:
+    """``fig10_fig11.png``: Fig. 10a/b (partition, free and constrained) and Fig. 11."""
+    from matplotlib.figure import Figure
+
+    thickness, rows = numbers["thickness_ratio"], numbers
     fig = Figure(figsize=(13, 4), layout="constrained")
     axes = fig.subplots(1, 3)
     panels = (("free", "(a) Fig. 10a"), ("constrained", "(b) Fig. 10b"))
@@ -70,10 +93,12 @@ def plot(thickness: np.ndarray, rows) -> Figure:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.suptitle("Energy partition against thickness ratio (g = 10, $v_0$ = 0.82)")
-    return fig
+    return [b.save(fig, figures_dir, "fig10_fig11.png")]
 
 
-def markdown(thickness: np.ndarray, rows) -> str:
+def table_fig10(numbers: dict) -> str:
+    """The markdown table: each structure's split, per constraint and thickness."""
+    thickness, rows = numbers["thickness_ratio"], numbers
     lines = ["Fractions of K0 at the end of each run.", ""]
     for name in ("free", "constrained"):
         r = rows[name]
@@ -111,7 +136,9 @@ def markdown(thickness: np.ndarray, rows) -> str:
     return "\n".join(lines)
 
 
-def findings(thickness: np.ndarray, rows) -> list[Finding]:
+def judge_fig10(numbers: dict) -> list[Finding]:
+    """The verdicts on Fig. 10a/b and Fig. 11's statements."""
+    thickness, rows = numbers["thickness_ratio"], numbers
     free, held = rows["free"], rows["constrained"]
     out = []
     for name, r in (("free", free), ("constrained", held)):
@@ -196,23 +223,13 @@ def findings(thickness: np.ndarray, rows) -> list[Finding]:
 
 def reproduce(quick: bool, figures_dir: Path) -> Reproduction:
     start = time.perf_counter()
-    thickness = thicknesses(quick)
-    grid = [
-        dict(axial_constraint=a, thickness_ratio=float(h)) for a in (0.0, 1.0) for h in thickness
-    ]
-    table = b.partition(grid, quick)
-    rows = shares(table, len(thickness))
-    name = b.save(plot(thickness, rows), figures_dir, "fig10_fig11.png")
-    numbers = {
-        "thickness_ratio": thickness,
-        **{f"{c}_{k}": v for c, r in rows.items() for k, v in r.items()},
-    }
+    numbers = compute_fig10(quick)
     return Reproduction(
         key="fig10",
         title=TITLE,
-        figures=[name],
-        table=markdown(thickness, rows),
-        numbers=b.jsonable(numbers),
-        findings=findings(thickness, rows),
+        figures=draw_fig10(numbers, figures_dir),
+        table=table_fig10(numbers),
+        numbers=b.jsonable(published_fig10(numbers)),
+        findings=judge_fig10(numbers),
         wall_time_s=time.perf_counter() - start,
     )

@@ -1,5 +1,9 @@
 """Fig. 20, 21, 23, 24: the effects of the attached mass and of the initial velocity on the
 partition (cases in `energy`'s docstring).
+
+Per figure, `compute_*` runs the sweep and returns the shares, `draw_*` renders them, `table_*`
+and `judge_*` write the table and the verdicts from the shares alone; `reproduce_*` composes
+them.
 """
 
 from __future__ import annotations
@@ -8,7 +12,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from . import _batch as b
 from ._common import Finding, Reproduction
@@ -121,10 +124,25 @@ def _rows_md(label: str, data: dict) -> list[tuple]:
 HEADER = ["series", "g", "v0", "K0", "beam", "ring", "contact", "plastic", "status"]
 
 
-def reproduce_fig20_21(quick: bool, figures_dir: Path) -> Reproduction:
-    start = time.perf_counter()
+LABELS_FIG20_21 = {
+    "20a_mass": "20a mass (v0 = 0.82)",
+    "20a_velocity": "20a velocity (g = 10)",
+    "20b": "20b fixed K0",
+    "21_mass": "21 mass (v0 = 0.82)",
+    "21_velocity": "21 velocity (g = 10)",
+}
+
+
+def compute_fig20_21(quick: bool) -> dict[str, dict[str, np.ndarray]]:
+    """Each series of Fig. 20-21 (`_series`): its `_shares`, by series name."""
     table, index = _run_series(quick)
-    d = {k: _shares(table, v) for k, v in index.items()}
+    return {k: _shares(table, v) for k, v in index.items()}
+
+
+def draw_fig20_21(d: dict, figures_dir: Path) -> list[str]:
+    """``fig20_21.png``: Fig. 20a, 20b and 21."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(15, 4.3), layout="constrained")
     ax_a, ax_b, ax_21 = fig.subplots(1, 3)
     _panel(ax_a, d["20a_mass"], d["20a_velocity"], "(a) Fig. 20a: h_b/h_r = 3, free")
@@ -141,18 +159,19 @@ def reproduce_fig20_21(quick: bool, figures_dir: Path) -> Reproduction:
     ax_b.legend(fontsize=7)
     _panel(ax_21, d["21_mass"], d["21_velocity"], "(c) Fig. 21: h_b/h_r = 2.5, constrained")
     fig.suptitle("Fig. 20-21: the attached mass and the initial velocity")
-    name = b.save(fig, figures_dir, "fig20_21.png")
-    labels = {
-        "20a_mass": "20a mass (v0 = 0.82)",
-        "20a_velocity": "20a velocity (g = 10)",
-        "20b": "20b fixed K0",
-        "21_mass": "21 mass (v0 = 0.82)",
-        "21_velocity": "21 velocity (g = 10)",
-    }
-    text = b.table(HEADER, [r for k, lab in labels.items() for r in _rows_md(lab, d[k])])
-    am, av, fb, cm, cv = (d[k] for k in labels)
+    return [b.save(fig, figures_dir, "fig20_21.png")]
+
+
+def table_fig20_21(d: dict) -> str:
+    """The markdown table: every run of every series."""
+    return b.table(HEADER, [r for k, lab in LABELS_FIG20_21.items() for r in _rows_md(lab, d[k])])
+
+
+def judge_fig20_21(d: dict) -> list[Finding]:
+    """The verdicts on Fig. 20a, 20b and 21."""
+    am, av, fb, cm, cv = (d[k] for k in LABELS_FIG20_21)
     high = cv["k0"] > 3.0
-    findings = [
+    return [
         Finding(
             "Fig. 20a",
             "h_b/h_r = 3, free: with a higher initial velocity the partition does not change "
@@ -217,22 +236,36 @@ def reproduce_fig20_21(quick: bool, figures_dir: Path) -> Reproduction:
             "compared at the largest K0 of each series (similar K0)",
         ),
     ]
+
+
+def reproduce_fig20_21(quick: bool, figures_dir: Path) -> Reproduction:
+    start = time.perf_counter()
+    d = compute_fig20_21(quick)
     return Reproduction(
         key="fig20_21",
         title="Fig. 20-21: effects of the attached mass and the initial velocity",
-        figures=[name],
-        table=text,
+        figures=draw_fig20_21(d, figures_dir),
+        table=table_fig20_21(d),
         numbers=b.jsonable(d),
-        findings=findings,
+        findings=judge_fig20_21(d),
         wall_time_s=time.perf_counter() - start,
     )
 
 
-def reproduce_fig23_24(quick: bool, figures_dir: Path) -> Reproduction:
-    start = time.perf_counter()
+def compute_fig23_24(quick: bool) -> dict[str, dict[str, np.ndarray]]:
+    """The h_b/h_r = 1 runs of Fig. 16 (`h1_table`): ``mass`` and ``velocity`` `_shares`."""
     table, index = h1_table(quick)
-    mass = _shares(table, with_g10(table, index, "mass_v082", 0.82))
-    velocity = _shares(table, index["velocity"])
+    return {
+        "mass": _shares(table, with_g10(table, index, "mass_v082", 0.82)),
+        "velocity": _shares(table, index["velocity"]),
+    }
+
+
+def draw_fig23_24(numbers: dict, figures_dir: Path) -> list[str]:
+    """``fig23_24.png``: Fig. 23 (shares against K0) and Fig. 24 (the ring's dissipation)."""
+    from matplotlib.figure import Figure
+
+    mass, velocity = numbers["mass"], numbers["velocity"]
     fig = Figure(figsize=(11, 4.3), layout="constrained")
     ax23, ax24 = fig.subplots(1, 2)
     _panel(ax23, mass, velocity, "(a) Fig. 23: h_b/h_r = 1, constrained")
@@ -245,8 +278,13 @@ def reproduce_fig23_24(quick: bool, figures_dir: Path) -> Reproduction:
     )
     ax24.grid(alpha=0.3)
     ax24.legend(fontsize=8)
-    name = b.save(fig, figures_dir, "fig23_24.png")
-    text = b.table(
+    return [b.save(fig, figures_dir, "fig23_24.png")]
+
+
+def table_fig23_24(numbers: dict) -> str:
+    """The markdown table: both series, with the ring's dissipation in M_pr."""
+    mass, velocity = numbers["mass"], numbers["velocity"]
+    return b.table(
         [*HEADER, "ring (M_pr)"],
         [
             (*row, f"{data['ring'][i] * data['k0'][i]:.3f}")
@@ -254,6 +292,11 @@ def reproduce_fig23_24(quick: bool, figures_dir: Path) -> Reproduction:
             for i, row in enumerate(_rows_md(lab, data))
         ],
     )
+
+
+def judge_fig23_24(numbers: dict) -> list[Finding]:
+    """The verdicts on Fig. 23 and 24, per effect (mass, velocity)."""
+    mass, velocity = numbers["mass"], numbers["velocity"]
     findings = []
     for lab, data in (("mass", mass), ("velocity", velocity)):
         k0, ring = data["k0"], data["ring"]
@@ -292,12 +335,18 @@ def reproduce_fig23_24(quick: bool, figures_dir: Path) -> Reproduction:
                 "'little' taken as less than 0.1 of each added unit of K0 (set before the run)",
             )
         )
+    return findings
+
+
+def reproduce_fig23_24(quick: bool, figures_dir: Path) -> Reproduction:
+    start = time.perf_counter()
+    numbers = compute_fig23_24(quick)
     return Reproduction(
         key="fig23_24",
         title="Fig. 23-24: mass and velocity effects, h_b/h_r = 1, constrained",
-        figures=[name],
-        table=text,
-        numbers=b.jsonable({"mass": mass, "velocity": velocity}),
-        findings=findings,
+        figures=draw_fig23_24(numbers, figures_dir),
+        table=table_fig23_24(numbers),
+        numbers=b.jsonable({"mass": numbers["mass"], "velocity": numbers["velocity"]}),
+        findings=judge_fig23_24(numbers),
         wall_time_s=time.perf_counter() - start,
     )

@@ -7,7 +7,9 @@
   MS-FD and rigid-plastic (Appendix, Eq. 25).
 
 Units: loads on the whole structure in M_pr / R (twice the half model's reaction),
-displacements in R. Each function returns a `Reproduction` (see `_common`).
+displacements in R. Each function returns a `Reproduction` (see `_common`), composed from
+`compute_*` (the runs and their numbers), `table_*` and `judge_*` (the table and the verdicts,
+from those numbers alone) and `_draw_quasistatic` (the figures).
 """
 
 from __future__ import annotations
@@ -19,7 +21,6 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
-from matplotlib.figure import Figure
 
 import msfd_jax as m
 from msfd_jax.studies.references.analytic import (
@@ -118,9 +119,9 @@ def moving_average(y, p, width):
 # Fig. 17(c)
 
 
-def reproduce_fig17(quick: bool, figures_dir: Path) -> Reproduction:
-    """Fig. 17(c): the MS-FD half ring pressed slowly by a plate against the Appendix."""
-    t0 = time.perf_counter()
+def compute_fig17(quick: bool) -> dict:
+    """Fig. 17(c)'s slow runs against the Appendix: the published numbers, ``quick``, and under
+    ``plot`` the curves of the figure."""
     speeds = QUICK_PLATE_SPEEDS if quick else PLATE_SPEEDS
     runs = [ring_on_plate_run(quick, v) for v in speeds]
     curve = half_ring_plate_curve(120, 2.0e-3) if quick else half_ring_plate_curve()
@@ -164,29 +165,63 @@ def reproduce_fig17(quick: bool, figures_dir: Path) -> Reproduction:
         appendix_segments=curve.segments,
         steps=[r["steps"] for r in runs],
     )
+    numbers["quick"] = quick
+    th = np.linspace(0.0, PAPER_PHASE_ONE_END * 0.999, 60)
+    numbers["plot"] = dict(
+        runs=runs, smooth=smooth, curve=curve, printed=paper_phase_one(th), y_max=PLATE_YMAX
+    )
+    return numbers
+
+
+def table_fig17(numbers: dict) -> str:
+    """The markdown table: window loads, speed check, collapse and peak loads."""
+    quick, speeds = numbers["quick"], numbers["speeds"]
+    rows = zip(
+        numbers["windows"],
+        numbers["msfd_window_load_fast"],
+        numbers["msfd_window_load"],
+        numbers["appendix_window_load"],
+        numbers["relative_difference"],
+        strict=True,
+    )
+    mean_rel, speed_diff = numbers["mean_abs_relative_difference"], numbers["speed_difference"]
+    deform_kinetic = numbers["max_deformation_kinetic_over_work"]
+    boundaries, segments = numbers["phase_ends"], numbers["appendix_segments"]
     table = [
         f"MS-FD half ring ({'6-segment quarter' if quick else 'paper mesh, 15 segments'}, "
         f"E/Y = 500, R/h_r = 10) driven at v = {speeds[0]:g} and {speeds[1]:g}; rigid-plastic "
-        f"curve by incremental limit analysis ({curve.segments} hinge sites). Work-averaged "
+        f"curve by incremental limit analysis ({segments} hinge sites). Work-averaged "
         "whole-ring load p (M_pr/R) per window of y_r:",
         "",
         f"| y_r window | MS-FD v={speeds[0]:g} | MS-FD v={speeds[1]:g} | Appendix | difference |",
         "|---|---:|---:|---:|---:|",
     ]
-    for a, b, f0, f1, an, d in rows:
+    for (a, b), f0, f1, an, d in rows:
         table.append(f"| [{a:.2f}, {b:.2f}] | {f0:.3f} | {f1:.3f} | {an:.3f} | {100 * d:+.1f} % |")
     table += [
         "",
         f"Mean |difference| {100 * mean_rel:.1f} %; the two drive speeds differ by at most "
         f"{100 * speed_diff:.2f} %; ring kinetic energy (besides the driven end) at most "
         f"{100 * max(deform_kinetic):.2f} % of the drive work (y_r > 0.05).",
-        f"Collapse load: hand calculation 4(1+sqrt 2) = {initial_collapse_load():.3f}; "
-        f"mean over y_r in [0.02, 0.1]: MS-FD {initial_fd:.3f}, Appendix {initial_an:.3f}.",
-        f"Peak (MS-FD moving average over 0.02): MS-FD {smooth[i_peak]:.2f} at y_r = "
-        f"{ref['y'][i_peak]:.3f}; Appendix {curve.p[a_peak]:.2f} at y_r = {curve.y[a_peak]:.3f}.",
-        f"Appendix phase ends: I {curve.boundaries[0]:.3f}, II {curve.boundaries[1]:.3f}, "
-        f"III {curve.boundaries[2]:.3f}.",
+        f"Collapse load: hand calculation 4(1+sqrt 2) = {numbers['collapse_load_hand']:.3f}; "
+        f"mean over y_r in [0.02, 0.1]: MS-FD {numbers['initial_load_msfd']:.3f}, "
+        f"Appendix {numbers['initial_load_appendix']:.3f}.",
+        f"Peak (MS-FD moving average over 0.02): MS-FD {numbers['peak_msfd']:.2f} at y_r = "
+        f"{numbers['peak_msfd_y']:.3f}; Appendix {numbers['peak_appendix']:.2f} at y_r = "
+        f"{numbers['peak_appendix_y']:.3f}.",
+        f"Appendix phase ends: I {boundaries[0]:.3f}, II {boundaries[1]:.3f}, "
+        f"III {boundaries[2]:.3f}.",
     ]
+    return "\n".join(table)
+
+
+def judge_fig17(numbers: dict) -> list[Finding]:
+    """The verdicts on Fig. 17c (the curves, the initial mechanism) and Fig. 22's hardening."""
+    mean_rel, rel = numbers["mean_abs_relative_difference"], numbers["relative_difference"]
+    initial_fd, p0 = numbers["initial_load_msfd"], numbers["collapse_load_hand"]
+    segments = numbers["appendix_segments"]
+    peak_an, peak_an_y = numbers["peak_appendix"], numbers["peak_appendix_y"]
+    peak_fd, peak_fd_y = numbers["peak_msfd"], numbers["peak_msfd_y"]
     agree_shape = mean_rel < 0.15
     findings = [
         Finding(
@@ -207,59 +242,40 @@ def reproduce_fig17(quick: bool, figures_dir: Path) -> Reproduction:
             "Fig. 17c / App.",
             "The initial collapse mechanism has hinges at the crown A, the arc's mid-point C "
             "and the support B.",
-            f"The limit analysis picks C at pi/4 among all {curve.segments} joints; "
-            f"p_0 = {initial_collapse_load():.3f} (hand) vs MS-FD {initial_fd:.3f} "
+            f"The limit analysis picks C at pi/4 among all {segments} joints; "
+            f"p_0 = {p0:.3f} (hand) vs MS-FD {initial_fd:.3f} "
             "(mean over y_r 0.02-0.1).",
-            bool(abs(initial_fd / initial_collapse_load() - 1) < 0.1),
+            bool(abs(initial_fd / p0 - 1) < 0.1),
             "Upper and lower bound coincide for this mechanism; MS-FD's hinge sits at the "
             "nearest joint (42 or 48 deg).",
         ),
         Finding(
             "Fig. 22 text",
             "The ring hardens while its compression does not exceed y = 0.32, then softens.",
-            f"Appendix peak {curve.p[a_peak]:.1f} at y_r = {curve.y[a_peak]:.3f} (end of "
-            f"Phase II); MS-FD peak {smooth[i_peak]:.1f} at y_r = {ref['y'][i_peak]:.3f}.",
-            bool(abs(curve.y[a_peak] - 0.32) < 0.03 and ref["y"][i_peak] < 0.45),
+            f"Appendix peak {peak_an:.1f} at y_r = {peak_an_y:.3f} (end of "
+            f"Phase II); MS-FD peak {peak_fd:.1f} at y_r = {peak_fd_y:.3f}.",
+            bool(abs(peak_an_y - 0.32) < 0.03 and peak_fd_y < 0.45),
             "Hardening while the contact runs out to the quarter's mid-point M (shorter lever "
             "arm), softening once it stays at M and the hinge travels to B; the elastic MS-FD "
             "ring reaches M later.",
         ),
     ]
-    figures_dir.mkdir(parents=True, exist_ok=True)
-    fig = Figure(figsize=(6.4, 4.2))
-    ax = fig.add_subplot()
-    for r, colour in zip(runs, ("0.65", "C0"), strict=True):
-        ax.plot(r["y"], r["p"], color=colour, lw=0.6, label=f"MS-FD, v = {r['speed']:g}")
-    ax.plot(ref["y"], smooth, "C0", lw=1.6, label="MS-FD, moving average 0.02")
-    for ph, colour in ((1, "k"), (2, "C3"), (3, "C2"), (4, "0.5")):
-        sel = curve.phase == ph
-        ax.plot(
-            curve.y[sel],
-            curve.p[sel],
-            color=colour,
-            lw=1.8,
-            label=f"rigid-plastic, phase {ph}" if ph < 4 else "rigid-plastic, after III",
-        )
-    th = np.linspace(0.0, PAPER_PHASE_ONE_END * 0.999, 60)
-    py, pp = paper_phase_one(th)
-    ax.plot(py, pp, "k:", lw=1.0, label="printed Phase I (contact kept at crown)")
-    ax.set(
-        xlabel=r"$y_r = Y_r/R$",
-        ylabel=r"$p = PR/M_{pr}$ (half ring)",
-        xlim=(0, PLATE_YMAX),
-        ylim=(0, 22),
-        title="Fig. 17(c): half ring pressed by a rigid plate",
-    )
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(figures_dir / "fig17c.png", dpi=130)
+    return findings
+
+
+def reproduce_fig17(quick: bool, figures_dir: Path) -> Reproduction:
+    """Fig. 17(c): the MS-FD half ring pressed slowly by a plate against the Appendix."""
+    from . import _draw_quasistatic as draw  # matplotlib only when drawing
+
+    t0 = time.perf_counter()
+    numbers = compute_fig17(quick)
     return Reproduction(
         key="fig17",
         title="Fig. 17(c): half ring under a rigid plate, MS-FD against the Appendix",
-        figures=["fig17c.png"],
-        table="\n".join(table),
-        numbers=numbers,
-        findings=findings,
+        figures=draw.draw_fig17(numbers, figures_dir),
+        table=table_fig17(numbers),
+        numbers={k: v for k, v in numbers.items() if k not in ("quick", "plot")},
+        findings=judge_fig17(numbers),
         wall_time_s=time.perf_counter() - t0,
     )
 
@@ -290,55 +306,93 @@ def quasi_static_partition(ring_y, ring_p, beam_y, beam_p, energy, step=1.0e-4):
 CASES = (("Fig. 18", 3.0, 0.0), ("Fig. 22", 2.5, 1.0))
 
 
-def reproduce_fig18_22(quick: bool, figures_dir: Path) -> Reproduction:
-    """Fig. 18 (h_b/h_r = 3, free) and Fig. 22 (2.5, constrained): ring and beam, quasi-static."""
-    t0 = time.perf_counter()
+def _fig18_22_case(quick, ring, curve, ring_smooth, lam, axial, speed, k0):
+    """One case: (its published numbers, the series model's details, the beam's curves)."""
+    params = m.CollisionParams()
+    beam = beam_run(quick, lam, axial, speed)
+    mp, np_, lb = lam**2, 4.0 * float(params.slenderness) * lam, float(params.span_ratio)
+    yy = np.linspace(0.0, BEAM_YMAX, 301)
+    eq25 = np.asarray(beam_central_load(yy, mp, np_, lb, axial_constraint=bool(axial)))
+    beam_smooth = moving_average(beam["y"], beam["p"], 0.02)
+    window = ring["y"] <= 0.5
+    # first deflection where the beam's load exceeds the ring's collapse load p_0
+    p0 = initial_collapse_load()
+    above = beam_smooth > p0
+    y_long = np.linspace(0.0, 0.9 * lb, 2001)  # rigid-plastic beam far enough to absorb K0
+    p_long = np.asarray(beam_central_load(y_long, mp, np_, lb, axial_constraint=bool(axial)))
+    er, eb, yr_end, yb_end = quasi_static_partition(curve.y, curve.p, y_long, p_long, k0)
+    numbers = dict(
+        thickness_ratio=lam,
+        axial_constraint=axial,
+        ring_min_load_msfd=float(np.min(ring_smooth[window & (ring["y"] >= 0.05)])),
+        ring_min_load_appendix=float(np.min(curve.p[curve.y <= 0.5])),
+        beam_max_load_msfd=float(np.max(beam_smooth[beam["y"] <= 0.5])),
+        beam_max_load_eq25=float(np.max(eq25[yy <= 0.5])),
+        beam_exceeds_ring_collapse_at_eq25=float(yy[np.argmax(eq25 > p0)])
+        if np.any(eq25 > p0)
+        else float("nan"),
+        beam_exceeds_ring_collapse_at_msfd=float(beam["y"][np.argmax(above)])
+        if np.any(above)
+        else float("nan"),
+        rigid_plastic_partition_ring=er / k0,
+        rigid_plastic_partition_beam=eb / k0,
+        rigid_plastic_final_y_r=yr_end,
+        rigid_plastic_final_y_b=yb_end,
+        beam_window_loads_msfd=[work_mean(beam["y"], beam["work"], a, b) for a, b in WINDOWS[:4]],
+        beam_window_loads_eq25=[curve_mean(yy, eq25, a, b) for a, b in WINDOWS[:4]],
+    )
+    detail = dict(m_p=mp, n_p=np_, span=lb, ring_energy=er, beam_energy=eb)
+    curves = dict(y=beam["y"], p=beam["p"], smooth=beam_smooth, y_rigid=yy, p_rigid=eq25)
+    return numbers, detail, curves
+
+
+def compute_fig18_22(quick: bool) -> dict:
+    """`CASES`: per case (``fig18``, ``fig22``) the published numbers; under ``detail`` the
+    series model and the ring's window loads, under ``plot`` the curves of the figure."""
     speed = QUICK_PLATE_SPEEDS[-1] if quick else PLATE_SPEEDS[-1]
     ring = ring_on_plate_run(quick, speed)
     curve = half_ring_plate_curve(120, 2.0e-3) if quick else half_ring_plate_curve()
     ring_smooth = moving_average(ring["y"], ring["p"], 0.02)
-    params = m.CollisionParams()
-    k0 = 2.0 * float(params.initial_kinetic_energy)  # whole half ring + block
-    numbers, table, findings = {"initial_kinetic_energy": k0}, [], []
-    fig = Figure(figsize=(11, 4.2))
-    yy = np.linspace(0.0, BEAM_YMAX, 301)
-    for j, (name, lam, axial) in enumerate(CASES):
-        beam = beam_run(quick, lam, axial, speed)
-        mp, np_, lb = lam**2, 4.0 * float(params.slenderness) * lam, float(params.span_ratio)
-        eq25 = np.asarray(beam_central_load(yy, mp, np_, lb, axial_constraint=bool(axial)))
-        beam_smooth = moving_average(beam["y"], beam["p"], 0.02)
-        window = ring["y"] <= 0.5
-        ring_min_fd = float(np.min(ring_smooth[window & (ring["y"] >= 0.05)]))
-        ring_min_an = float(np.min(curve.p[curve.y <= 0.5]))
-        beam_max_fd = float(np.max(beam_smooth[beam["y"] <= 0.5]))
-        beam_max_an = float(np.max(eq25[yy <= 0.5]))
-        # first deflection where the beam's load exceeds the ring's collapse load p_0
-        p0 = initial_collapse_load()
-        cross_an = float(yy[np.argmax(eq25 > p0)]) if np.any(eq25 > p0) else float("nan")
-        above = beam_smooth > p0
-        cross_fd = float(beam["y"][np.argmax(above)]) if np.any(above) else float("nan")
-        y_long = np.linspace(0.0, 0.9 * lb, 2001)  # rigid-plastic beam far enough to absorb K0
-        p_long = np.asarray(beam_central_load(y_long, mp, np_, lb, axial_constraint=bool(axial)))
-        er, eb, yr_end, yb_end = quasi_static_partition(curve.y, curve.p, y_long, p_long, k0)
-        key = name.replace(". ", "").lower()
-        numbers[key] = dict(
-            thickness_ratio=lam,
-            axial_constraint=axial,
-            ring_min_load_msfd=ring_min_fd,
-            ring_min_load_appendix=ring_min_an,
-            beam_max_load_msfd=beam_max_fd,
-            beam_max_load_eq25=beam_max_an,
-            beam_exceeds_ring_collapse_at_eq25=cross_an,
-            beam_exceeds_ring_collapse_at_msfd=cross_fd,
-            rigid_plastic_partition_ring=er / k0,
-            rigid_plastic_partition_beam=eb / k0,
-            rigid_plastic_final_y_r=yr_end,
-            rigid_plastic_final_y_b=yb_end,
-            beam_window_loads_msfd=[
-                work_mean(beam["y"], beam["work"], a, b) for a, b in WINDOWS[:4]
-            ],
-            beam_window_loads_eq25=[curve_mean(yy, eq25, a, b) for a, b in WINDOWS[:4]],
-        )
+    k0 = 2.0 * float(m.CollisionParams().initial_kinetic_energy)  # whole half ring + block
+    numbers: dict = {"initial_kinetic_energy": k0}
+    details, beams = [], []
+    for name, lam, axial in CASES:
+        case, detail, beam = _fig18_22_case(quick, ring, curve, ring_smooth, lam, axial, speed, k0)
+        numbers[name.replace(". ", "").lower()] = case
+        details.append(dict(detail, name=name))
+        beams.append(beam)
+    numbers["detail"] = dict(
+        speed=speed,
+        cases=details,
+        ring_collapse_load=initial_collapse_load(),
+        ring_max_load_appendix=curve.p.max(),
+        ring_window_loads_msfd=[work_mean(ring["y"], ring["work"], a, b) for a, b in WINDOWS[:4]],
+        ring_window_loads_appendix=[curve_mean(curve.y, curve.p, a, b) for a, b in WINDOWS[:4]],
+    )
+    numbers["plot"] = dict(
+        ring=dict(y=ring["y"], p=ring["p"], smooth=ring_smooth),
+        appendix=dict(y=curve.y, p=curve.p),
+        beams=beams,
+    )
+    return numbers
+
+
+def _cases(numbers: dict):
+    """(name, published numbers, series-model details) per case of `CASES`."""
+    for detail in numbers["detail"]["cases"]:
+        name = detail["name"]
+        yield name, numbers[name.replace(". ", "").lower()], detail
+
+
+def table_fig18_22(numbers: dict) -> str:
+    """Per case: the window loads of beam and ring, MS-FD and rigid-plastic, and the series
+    model's partition."""
+    d, table = numbers["detail"], []
+    k0, speed = numbers["initial_kinetic_energy"], d["speed"]
+    for name, case, detail in _cases(numbers):
+        lam, axial = case["thickness_ratio"], case["axial_constraint"]
+        mp, np_, lb = detail["m_p"], detail["n_p"], detail["span"]
+        er, eb = detail["ring_energy"], detail["beam_energy"]
         table += [
             f"**{name}**: h_b/h_r = {lam:g}, beam {'axially constrained' if axial else 'free'} "
             f"(m_p = {mp:g}, n_p = {np_:g}, l_b = {lb:g}); MS-FD drive v = {speed:g}.",
@@ -346,25 +400,37 @@ def reproduce_fig18_22(quick: bool, figures_dir: Path) -> Reproduction:
             "| y window | beam MS-FD | Eq. 25 | ring MS-FD | Appendix |",
             "|---|---:|---:|---:|---:|",
         ]
-        for (a, b), bf, ba in zip(
+        for (a, b), bf, ba, rf, ra in zip(
             WINDOWS[:4],
-            numbers[key]["beam_window_loads_msfd"],
-            numbers[key]["beam_window_loads_eq25"],
+            case["beam_window_loads_msfd"],
+            case["beam_window_loads_eq25"],
+            d["ring_window_loads_msfd"],
+            d["ring_window_loads_appendix"],
             strict=True,
         ):
-            table.append(
-                f"| [{a:.2f}, {b:.2f}] | {bf:.3f} | {ba:.3f} | "
-                f"{work_mean(ring['y'], ring['work'], a, b):.3f} | "
-                f"{curve_mean(curve.y, curve.p, a, b):.3f} |"
-            )
+            table.append(f"| [{a:.2f}, {b:.2f}] | {bf:.3f} | {ba:.3f} | {rf:.3f} | {ra:.3f} |")
         table += [
             "",
             f"Rigid-plastic structures in series absorbing K0 = {k0:.2f} (the showcase's whole "
             f"ring + block): ring {100 * er / k0:.0f} %, beam {100 * eb / k0:.0f} % "
-            f"(y_r = {yr_end:.3f}, y_b = {yb_end:.3f}).",
+            f"(y_r = {case['rigid_plastic_final_y_r']:.3f}, "
+            f"y_b = {case['rigid_plastic_final_y_b']:.3f}).",
             "",
         ]
-        if axial == 0.0:
+    return "\n".join(table)
+
+
+def judge_fig18_22(numbers: dict) -> list[Finding]:
+    """The verdicts on Fig. 18 (free beam, the weaker) and Fig. 22 (constrained, the stiffer)."""
+    k0, d, findings = numbers["initial_kinetic_energy"], numbers["detail"], []
+    p0, ring_max = d["ring_collapse_load"], d["ring_max_load_appendix"]
+    for name, case, detail in _cases(numbers):
+        er, eb = detail["ring_energy"], detail["beam_energy"]
+        ring_min_fd, ring_min_an = case["ring_min_load_msfd"], case["ring_min_load_appendix"]
+        beam_max_fd, beam_max_an = case["beam_max_load_msfd"], case["beam_max_load_eq25"]
+        cross_an = case["beam_exceeds_ring_collapse_at_eq25"]
+        cross_fd = case["beam_exceeds_ring_collapse_at_msfd"]
+        if case["axial_constraint"] == 0.0:
             findings.append(
                 Finding(
                     name,
@@ -388,47 +454,28 @@ def reproduce_fig18_22(quick: bool, figures_dir: Path) -> Reproduction:
                     "structure (axial tension); the ring hardens up to y = 0.32, then softens.",
                     f"Eq. 25 exceeds the ring's collapse load {p0:.2f} from y_b = {cross_an:.3f} "
                     f"(MS-FD beam: {cross_fd:.3f}); beam {beam_max_an:.1f} (Eq. 25) / "
-                    f"{beam_max_fd:.1f} (MS-FD) at y_b = 0.5 vs ring <= {curve.p.max():.1f}; "
+                    f"{beam_max_fd:.1f} (MS-FD) at y_b = 0.5 vs ring <= {ring_max:.1f}; "
                     f"series model: ring {100 * er / k0:.0f} % of K0.",
-                    bool(cross_an < 0.2 and beam_max_fd > curve.p.max()),
+                    bool(cross_an < 0.2 and beam_max_fd > ring_max),
                     "The membrane force 2 n_p y / l_b grows without bound while the ring's load "
                     "stays below ~16, so beyond y_b ~ 0.1 the ring is the less stiff structure.",
                 )
             )
-        ax = fig.add_subplot(1, 2, j + 1)
-        ax.plot(-beam["y"], beam["p"], color="0.7", lw=0.5)
-        ax.plot(-beam["y"], beam_smooth, "C1", lw=1.4, label="beam, MS-FD")
-        ax.plot(
-            -yy,
-            eq25,
-            "k--",
-            lw=1.2,
-            label="beam, Eq. 25" if axial else r"beam, $2m_p/\sqrt{l_b^2-y^2}$",
-        )
-        ax.plot(ring["y"], ring["p"], color="0.7", lw=0.5)
-        ax.plot(ring["y"], ring_smooth, "C0", lw=1.4, label="ring, MS-FD")
-        ax.plot(curve.y, curve.p, "k-", lw=1.2, label="ring, Appendix (rigid-plastic)")
-        ax.axvline(0.0, color="k", lw=0.6)
-        ax.set(
-            xlabel=r"$\leftarrow y_b$ (beam)     $y_r$ (ring) $\rightarrow$",
-            ylabel="p (load on the whole structure, $M_{pr}/R$)",
-            xlim=(-0.6, 0.6),
-            ylim=(0, 30 if axial else 20),
-            title=f"{name}: $h_b/h_r$ = {lam:g}, beam {'constrained' if axial else 'free'}",
-        )
-        ax.set_xticks(
-            np.linspace(-0.6, 0.6, 7), [f"{abs(t):.1f}" for t in np.linspace(-0.6, 0.6, 7)]
-        )
-        ax.legend(fontsize=7, loc="upper left" if axial else "upper right")
-    fig.tight_layout()
-    figures_dir.mkdir(parents=True, exist_ok=True)
-    fig.savefig(figures_dir / "fig18_fig22.png", dpi=130)
+    return findings
+
+
+def reproduce_fig18_22(quick: bool, figures_dir: Path) -> Reproduction:
+    """Fig. 18 (h_b/h_r = 3, free) and Fig. 22 (2.5, constrained): ring and beam, quasi-static."""
+    from . import _draw_quasistatic as draw  # matplotlib only when drawing
+
+    t0 = time.perf_counter()
+    numbers = compute_fig18_22(quick)
     return Reproduction(
         key="fig18_22",
         title="Fig. 18 and 22: quasi-static load-deformation of the ring and the beam",
-        figures=["fig18_fig22.png"],
-        table="\n".join(table),
-        numbers=numbers,
-        findings=findings,
+        figures=draw.draw_fig18_22(numbers, figures_dir),
+        table=table_fig18_22(numbers),
+        numbers={k: v for k, v in numbers.items() if k not in ("detail", "plot")},
+        findings=judge_fig18_22(numbers),
         wall_time_s=time.perf_counter() - t0,
     )

@@ -16,6 +16,10 @@ how far the apex lies behind the ring's foremost point, and call the ring "U" wh
 (a tenth of the ring's thickness: node-level ripple of a flat bottom), "slightly W" when w is
 below the ring thickness h_r/R, and "W" beyond. The thresholds are scales of the section, set
 before looking at the runs.
+
+`compute_fig13_14` runs the collisions and measures them, `draw_fig13_14` renders the two
+figures, `table_fig13_14` and `judge_fig13_14` write the table and the verdicts from the
+numbers alone; `reproduce` composes them.
 """
 
 from __future__ import annotations
@@ -24,7 +28,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from . import _batch as b
 from ._common import Finding, Reproduction
@@ -96,7 +99,10 @@ def _draw(ax, chains: list[np.ndarray], title: str) -> None:
     ax.grid(alpha=0.3)
 
 
-def plot_fig13(run: b.Run) -> Figure:
+def plot_fig13(run: b.Run):
+    """Fig. 13a-d (shapes at the paper's instants), the final shape and the contact pairs."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(14, 6.5), layout="constrained")
     top, bottom = fig.subfigures(2, 1, height_ratios=(1.0, 1.1))
     axes = top.subplots(1, 5)
@@ -152,7 +158,10 @@ def plot_fig13(run: b.Run) -> Figure:
     return fig
 
 
-def plot_fig14(cases: list[b.Run], sweep: list[b.Run]) -> Figure:
+def plot_fig14(cases: list[b.Run], sweep: list[b.Run]):
+    """Fig. 14's final rings and the dimple depth against h_b/h_r."""
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(14, 4.2), layout="constrained")
     axes = fig.subplots(1, len(cases) + 1, width_ratios=[1.0] * len(cases) + [1.2])
     for ax, run in zip(axes[:-1], cases, strict=True):
@@ -179,67 +188,101 @@ def plot_fig14(cases: list[b.Run], sweep: list[b.Run]) -> Figure:
     return fig
 
 
-def reproduce(quick: bool, figures_dir: Path) -> Reproduction:
-    start = time.perf_counter()
+def describe(run: b.Run) -> dict:
+    """One run's row of the report: shape, shares, contact extent and times."""
+    w = dimple_depth(run.final[b.RING])
+    track = contact_track(run)
+    on = track["ring_outer"] >= 0
+    apex = run.history["contact_pairs"][:, 0, :].any(1)
+    return dict(
+        thickness_ratio=run.params["thickness_ratio"],
+        status=run.status,
+        t_end=run.t_end,
+        dimple_depth=w,
+        shape=classify(w, run.params["slenderness"]),
+        ring=float(run.energy("ring")[-1]),
+        beam=float(run.energy("beam")[-1]),
+        apex_last_contact=float(run.ts[apex].max()) if apex.any() else float("nan"),
+        ring_node_max=int(track["ring_outer"].max()),
+        beam_node_max=int(track["beam_outer"].max()),
+        last_contact=float(run.ts[on].max()) if on.any() else float("nan"),
+    )
+
+
+def contact_drift(run: b.Run) -> dict[str, float]:
+    """The innermost ring node in contact, averaged over the first and the last 0.1 of contact."""
+    track = contact_track(run)
+    on = track["ring_outer"] >= 0
+    ts = run.ts[on]
+    early = ts <= ts[0] + 0.1
+    late = ts >= ts[-1] - 0.1
+    return dict(
+        inner_early=float(np.mean(track["ring_inner"][on][early])),
+        inner_late=float(np.mean(track["ring_inner"][on][late])),
+    )
+
+
+def compute_fig13_14(quick: bool) -> dict:
+    """The Fig. 13 and 14 cases and the sweep of h_b/h_r (constrained), run and measured.
+
+    ``cases`` and ``sweep`` are `describe`'s rows (the published numbers), ``drift`` is
+    `contact_drift` of Fig. 13's case and ``runs`` the runs themselves (for the figures).
+    """
     thickness = sweep_thickness(quick)
     cases = (SHOWCASE, *FIG14)
     rows = [dict(thickness_ratio=h, axial_constraint=1.0) for h in (*cases, *thickness)]
     runs = b.histories(rows, quick)
-    showcase, fig14, sweep = runs[0], runs[1:3], runs[3:]
-    names = [
-        b.save(plot_fig13(showcase), figures_dir, "fig13.png"),
-        b.save(plot_fig14([*fig14, showcase], sweep), figures_dir, "fig14.png"),
+    return dict(
+        cases=[describe(r) for r in runs[:3]],
+        sweep=[describe(r) for r in runs[3:]],
+        drift=contact_drift(runs[0]),
+        runs=dict(showcase=runs[0], fig14=runs[1:3], sweep=runs[3:]),
+    )
+
+
+def draw_fig13_14(numbers: dict, figures_dir: Path) -> list[str]:
+    """``fig13.png`` (Fig. 13's case over time) and ``fig14.png`` (final rings, U to W)."""
+    runs = numbers["runs"]
+    return [
+        b.save(plot_fig13(runs["showcase"]), figures_dir, "fig13.png"),
+        b.save(
+            plot_fig14([*runs["fig14"], runs["showcase"]], runs["sweep"]), figures_dir, "fig14.png"
+        ),
     ]
 
-    def describe(run: b.Run) -> dict:
-        w = dimple_depth(run.final[b.RING])
-        track = contact_track(run)
-        on = track["ring_outer"] >= 0
-        apex = run.history["contact_pairs"][:, 0, :].any(1)
-        return dict(
-            thickness_ratio=run.params["thickness_ratio"],
-            status=run.status,
-            t_end=run.t_end,
-            dimple_depth=w,
-            shape=classify(w, run.params["slenderness"]),
-            ring=float(run.energy("ring")[-1]),
-            beam=float(run.energy("beam")[-1]),
-            apex_last_contact=float(run.ts[apex].max()) if apex.any() else float("nan"),
-            ring_node_max=int(track["ring_outer"].max()),
-            beam_node_max=int(track["beam_outer"].max()),
-            last_contact=float(run.ts[on].max()) if on.any() else float("nan"),
-        )
 
-    case_rows = [describe(r) for r in runs[:3]]
-    sweep_rows = [describe(r) for r in sweep]
-    header = [
-        "h_b/h_r",
-        "w = (max y - y_S)/R",
-        "shape",
-        "ring",
-        "beam",
-        "apex S last in contact (tau)",
-        "outermost ring / beam node in contact",
-        "last contact (tau)",
-        "tau end",
-        "status",
-    ]
+HEADER = [
+    "h_b/h_r",
+    "w = (max y - y_S)/R",
+    "shape",
+    "ring",
+    "beam",
+    "apex S last in contact (tau)",
+    "outermost ring / beam node in contact",
+    "last contact (tau)",
+    "tau end",
+    "status",
+]
 
-    def line(d):
-        return (
-            f"{d['thickness_ratio']:g}",
-            f"{d['dimple_depth']:.3f}",
-            d["shape"],
-            d["ring"],
-            d["beam"],
-            f"{d['apex_last_contact']:.3f}",
-            f"{d['ring_node_max']} / {d['beam_node_max']}",
-            f"{d['last_contact']:.3f}",
-            f"{d['t_end']:.2f}",
-            d["status"],
-        )
 
-    text = "\n".join(
+def _line(d: dict) -> tuple:
+    return (
+        f"{d['thickness_ratio']:g}",
+        f"{d['dimple_depth']:.3f}",
+        d["shape"],
+        d["ring"],
+        d["beam"],
+        f"{d['apex_last_contact']:.3f}",
+        f"{d['ring_node_max']} / {d['beam_node_max']}",
+        f"{d['last_contact']:.3f}",
+        f"{d['t_end']:.2f}",
+        d["status"],
+    )
+
+
+def table_fig13_14(numbers: dict) -> str:
+    """The markdown tables of the cases and of the sweep."""
+    return "\n".join(
         [
             "Dimple depth w (see `msfd_jax/_reproduce/shapes.py`): 'U' when w < 0.1 h_r/R = "
             "0.01, 'slightly W' when w < h_r/R = 0.1, 'W' beyond. Ring / beam: their plastic "
@@ -248,34 +291,34 @@ def reproduce(quick: bool, figures_dir: Path) -> Reproduction:
             "",
             "Fig. 13 and 14 cases:",
             "",
-            b.table(header, [line(d) for d in case_rows]),
+            b.table(HEADER, [_line(d) for d in numbers["cases"]]),
             "",
             "Sweep of h_b/h_r (beam axially constrained):",
             "",
-            b.table(header, [line(d) for d in sweep_rows]),
+            b.table(HEADER, [_line(d) for d in numbers["sweep"]]),
         ]
     )
-    findings = _findings(case_rows, sweep_rows, showcase)
+
+
+def reproduce(quick: bool, figures_dir: Path) -> Reproduction:
+    start = time.perf_counter()
+    numbers = compute_fig13_14(quick)
     return Reproduction(
         key="fig13_14",
         title=TITLE,
-        figures=names,
-        table=text,
-        numbers=b.jsonable({"cases": case_rows, "sweep": sweep_rows}),
-        findings=findings,
+        figures=draw_fig13_14(numbers, figures_dir),
+        table=table_fig13_14(numbers),
+        numbers=b.jsonable({"cases": numbers["cases"], "sweep": numbers["sweep"]}),
+        findings=judge_fig13_14(numbers),
         wall_time_s=time.perf_counter() - start,
     )
 
 
-def _findings(cases: list[dict], sweep: list[dict], showcase: b.Run) -> list[Finding]:
-    show, u_case, w_case = cases
-    track = contact_track(showcase)
-    on = track["ring_outer"] >= 0
-    ts = showcase.ts[on]
-    early = ts <= ts[0] + 0.1
-    late = ts >= ts[-1] - 0.1
-    inner_early = float(np.mean(track["ring_inner"][on][early]))
-    inner_late = float(np.mean(track["ring_inner"][on][late]))
+def judge_fig13_14(numbers: dict) -> list[Finding]:
+    """The verdicts on Fig. 13e, 14a-b and Sect. 4.2's U-to-W statement."""
+    show, u_case, w_case = numbers["cases"]
+    sweep = numbers["sweep"]
+    inner_early, inner_late = numbers["drift"]["inner_early"], numbers["drift"]["inner_late"]
     out = [
         Finding(
             "Fig. 13e",
