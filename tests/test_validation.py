@@ -3,7 +3,8 @@
 Two compiled programs in all: one beam drive (both support conditions, since the axial
 constraint is an array) and one cantilever (every mass, velocity and E/Y, arrays too); the
 step bound `max_steps` and `t_max` (an array) are fixed so no case recompiles.
-Measured numbers: docs/validation_quickstatic.md (python -m msfd_jax.studies.scripts.validate_analytic).
+Measured numbers: docs/validation_quickstatic.md
+(`python -m msfd_jax.studies.scripts.validate_analytic`).
 """
 
 import math

@@ -63,6 +63,7 @@ class StabilityScene:
     - `step_factor`: dt = step_factor x critical_step(scene) (sets `safety`).
     - `expect`: "finishes", "refused" (an exception at the boundary) or "stopped" (a guard).
     - `tolerance`: allowed |energy balance error| / K0 when the scene finishes.
+    - `quick_tolerance`: the same in quick form (coarse mesh), where it differs.
     - `cause`: text the message must contain when refused or stopped.
     - `max_kinetic`: a finishing run must end with at most this kinetic fraction of K0, unless
       the structures are apart at the end (a rebound keeps its kinetic energy)
@@ -81,6 +82,7 @@ class StabilityScene:
     step_factor: float | None = None
     expect: str = FINISHES
     tolerance: float = 1e-3
+    quick_tolerance: float | None = None
     cause: str = ""
     max_kinetic: float | None = None
     float32: bool = False
@@ -95,7 +97,15 @@ CATALOGUE: tuple[StabilityScene, ...] = (
     _S("showcase", "the paper's Fig. 13 collision (reference row)"),
     _S("modulus_100", "E/Y = 100: soft material, large elastic strains", {"modulus_ratio": 100.0}),
     _S("modulus_2000", "E/Y = 2000: stiff material, small stable step", {"modulus_ratio": 2000.0}),
-    _S("thin_beam", "h_b/h_r = 0.1: beam far thinner than the ring", {"thickness_ratio": 0.1}),
+    # quick_tolerance 3e-3: on the coarse 6/8+2 mesh the sharp contact, 10x stiffer since
+    # issue 9, closes and opens with a kink the default step resolves at first order (measured
+    # 1.9e-3 and 2.1e-3 K0 at tau = 3 for these two; 2.5e-4 and 2.4e-5 on the paper mesh)
+    _S(
+        "thin_beam",
+        "h_b/h_r = 0.1: beam far thinner than the ring",
+        {"thickness_ratio": 0.1},
+        quick_tolerance=3e-3,
+    ),
     _S("thick_beam", "h_b/h_r = 10: nearly rigid beam", {"thickness_ratio": 10.0}),
     _S("slow_impact", "v0 = 0.05: barely plastic impact", {"velocity": 0.05}),
     # v0 = 5 crushes a ring bar axially (perfectly plastic in compression, nothing resists
@@ -125,6 +135,7 @@ CATALOGUE: tuple[StabilityScene, ...] = (
         "yield x 1e12 everywhere: purely elastic (nothing dissipates: runs to t_max)",
         yield_scale=1e12,
         settings=_NO_SETTLE,
+        quick_tolerance=3e-3,
     ),
     _S(
         "quasi_static",
@@ -269,6 +280,8 @@ def build(entry: StabilityScene, quick: bool = False) -> tuple[Scene, Settings]:
 
 def run_scene(entry: StabilityScene, quick: bool = False) -> dict[str, Any]:
     """Run one entry; the row: result, t_end, steps, energy error, wall time, message."""
+    if quick and entry.quick_tolerance is not None:
+        entry = dataclasses.replace(entry, tolerance=entry.quick_tolerance)
     if entry.float32:
         return _run_float32(entry, quick)
     start = time.perf_counter()

@@ -284,7 +284,7 @@ def table_fig13_14(numbers: dict) -> str:
     """The markdown tables of the cases and of the sweep."""
     return "\n".join(
         [
-            "Dimple depth w (see `msfd_jax/_reproduce/shapes.py`): 'U' when w < 0.1 h_r/R = "
+            "Dimple depth w (see `msfd_jax/studies/reproduce/shapes.py`): 'U' when w < 0.1 h_r/R = "
             "0.01, 'slightly W' when w < h_r/R = 0.1, 'W' beyond. Ring / beam: their plastic "
             "dissipation, fractions of K0. Nodes are numbered from the mid-points (0 = apex S, "
             "mid-span O), as in Fig. 13e.",
