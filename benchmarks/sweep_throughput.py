@@ -6,12 +6,13 @@ paper's v0 = 0.82, Fig. 10) runs on the paper's mesh (15, 20 + 5) and on the sma
 (same `max_steps`, so the same program), then the whole sweep is timed: collisions/s exclude
 compilation. ``--shard`` re-runs with each chunk split across all JAX devices; on CPU start it
 as ``XLA_FLAGS=--xla_force_host_platform_device_count=2 python benchmarks/sweep_throughput.py
---shard`` to get two host devices. Results are merged into ``benchmarks/results/sweep.json``
+--shard --chunks 2 8 32 64`` to get two host devices (chunks must be a multiple of the device
+count). Results are merged into ``benchmarks/results/sweep.json``
 and rewritten as ``sweep.md``.
 
     python benchmarks/sweep_throughput.py                 # unsharded, both meshes
     XLA_FLAGS=--xla_force_host_platform_device_count=2 \
-        python benchmarks/sweep_throughput.py --shard     # two host devices
+        python benchmarks/sweep_throughput.py --shard --chunks 2 8 32 64   # two host devices
 """
 
 from __future__ import annotations
