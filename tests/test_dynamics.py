@@ -6,7 +6,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from conftest import SHORT, SMALL_MESH
+from conftest import COMPARE_SMOOTHING, SHORT, SMALL_MESH
 
 import msfd_jax as m
 from msfd_jax._chain import lumped_masses
@@ -102,12 +102,11 @@ def test_showcase_energy_balance_and_partition(showcase):
 
 
 def _beam_dissipation(thickness, adjoint=None, t_max=0.6):
-    # contact smoothing 1e-3: with the sharp contact (stiff since issue 9) the coarse mesh's
-    # ring chatters on the beam and amplifies rounding differences exponentially (vmap against
-    # a loop: 1e-5 K0 at tau = 0.2, 7e-4 at 0.6); smoothed, the map is smooth and they agree
-    # to 2e-13 (measured)
+    # smoothed contact: batched and looped runs are compared (see conftest)
     scene = m.ring_on_beam(
-        m.CollisionParams(thickness_ratio=thickness), SMALL_MESH, contact_smoothing=1e-3
+        m.CollisionParams(thickness_ratio=thickness),
+        SMALL_MESH,
+        contact_smoothing=COMPARE_SMOOTHING,
     )
     settings = m.Settings(t_max=t_max, history_points=3, shape_times=(), max_steps=2**13)
     sol = m.simulate(scene, settings, adjoint=adjoint)

@@ -11,7 +11,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import SHORT, SMALL_MESH
+from conftest import COMPARE_SMOOTHING, SHORT, SMALL_MESH
 
 import msfd_jax as m
 from msfd_jax import _sweep
@@ -21,11 +21,7 @@ from msfd_jax.cli import main
 GRID = {"thickness_ratio": [1.0, 2.5], "axial_constraint": [0.0, 1.0]}
 POINTS = [(1.0, 0.0), (1.0, 1.0), (2.5, 0.0), (2.5, 1.0)]  # C order: last key fastest
 CHUNK = 3
-# the sweeps compared with single runs smooth the contact: with the sharp (stiff, issue 9)
-# contact the coarse mesh's ring chatters and amplifies the rounding differences of a
-# vmapped program exponentially (7e-4 K0 by tau = 0.6, tests/test_dynamics.py); smoothed,
-# the batched and single runs agree to ~1e-13, so the checks below still see the physics
-SMOOTH = 1e-3
+SMOOTH = COMPARE_SMOOTHING  # sweeps compared with single runs (see conftest)
 
 
 @pytest.fixture(scope="module")

@@ -13,6 +13,9 @@ them into ``reproduce.md`` / ``reproduce.json``; ``docs/validation.md`` quotes t
 from __future__ import annotations
 
 import dataclasses
+import time
+from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 
@@ -62,3 +65,33 @@ class Reproduction:
                 )
         lines += ["", f"({self.wall_time_s:.0f} s)", ""]
         return "\n".join(lines)
+
+
+def compose(
+    key: str,
+    title: str,
+    quick: bool,
+    figures_dir: Path,
+    *,
+    compute: Callable[[bool], dict],
+    draw: Callable[[dict, Path], list[str]],
+    table: Callable[[dict], str],
+    judge: Callable[[dict], list[Finding]],
+    publish: Callable[[dict], dict[str, Any]],
+) -> Reproduction:
+    """One figure's `Reproduction` from its parts: compute, then draw, tabulate, publish, judge.
+
+    `publish` picks the JSON-able numbers of ``reproduce.json`` from what `compute` returned
+    (which may also hold runs and curves that only drawing and judging need).
+    """
+    start = time.perf_counter()
+    numbers = compute(quick)
+    return Reproduction(
+        key=key,
+        title=title,
+        figures=draw(numbers, figures_dir),
+        table=table(numbers),
+        numbers=publish(numbers),
+        findings=judge(numbers),
+        wall_time_s=time.perf_counter() - start,
+    )

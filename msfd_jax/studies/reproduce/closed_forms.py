@@ -9,7 +9,6 @@ the verdicts from the numbers alone; `reproduce_analytic` composes them.
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import jax
@@ -22,7 +21,7 @@ from msfd_jax.studies.references.analytic import (
     elastic_membrane_load,
     parkes_cantilever,
 )
-from msfd_jax.studies.reproduce._common import Finding, Reproduction
+from msfd_jax.studies.reproduce._common import Finding, Reproduction, compose
 
 from .quasistatic import work_mean
 
@@ -348,14 +347,14 @@ def judge_analytic(numbers: dict) -> list[Finding]:
 
 def reproduce_analytic(quick: bool, figures_dir: Path) -> Reproduction:
     """Eq. 25 against the slowly driven MS-FD beam; Parkes' cantilever against MS-FD."""
-    t0 = time.perf_counter()
-    numbers = compute_analytic(quick)
-    return Reproduction(
-        key="analytic",
-        title="Eq. 25 and Parkes' cantilever: slow and struck MS-FD runs against closed forms",
-        figures=draw_analytic(numbers, figures_dir),
-        table=table_analytic(numbers),
-        numbers=published_analytic(numbers),
-        findings=judge_analytic(numbers),
-        wall_time_s=time.perf_counter() - t0,
+    return compose(
+        "analytic",
+        "Eq. 25 and Parkes' cantilever: slow and struck MS-FD runs against closed forms",
+        quick,
+        figures_dir,
+        compute=compute_analytic,
+        draw=draw_analytic,
+        table=table_analytic,
+        judge=judge_analytic,
+        publish=published_analytic,
     )

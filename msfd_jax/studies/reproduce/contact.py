@@ -27,13 +27,12 @@ composes them.
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
 
 from . import _batch as b
-from ._common import Finding, Reproduction
+from ._common import Finding, Reproduction, compose
 
 WINDOW = 0.02
 STAGE = 0.05  # the collision stage of Fig. 15a ("only the initial very brief period")
@@ -253,17 +252,16 @@ def judge_fig15(numbers: dict) -> list[Finding]:
 def reproduce_fig15(quick: bool, figures_dir: Path) -> Reproduction:
     from . import _draw_contact as draw  # matplotlib only when drawing
 
-    start = time.perf_counter()
-    numbers = compute_fig15(quick)
-    published = {k: numbers[k] for k in ("window", "cases", "segment")}
-    return Reproduction(
-        key="fig15",
-        title="Fig. 15: contact force, raw and moving-averaged; separations",
-        figures=draw.draw_fig15(numbers, figures_dir),
-        table=table_fig15(numbers),
-        numbers=b.jsonable(published),
-        findings=judge_fig15(numbers),
-        wall_time_s=time.perf_counter() - start,
+    return compose(
+        "fig15",
+        "Fig. 15: contact force, raw and moving-averaged; separations",
+        quick,
+        figures_dir,
+        compute=compute_fig15,
+        draw=draw.draw_fig15,
+        table=table_fig15,
+        judge=judge_fig15,
+        publish=lambda n: b.jsonable({k: n[k] for k in ("window", "cases", "segment")}),
     )
 
 
@@ -414,22 +412,15 @@ def judge_fig16(numbers: dict) -> list[Finding]:
 def reproduce_fig16(quick: bool, figures_dir: Path) -> Reproduction:
     from . import _draw_contact as draw  # matplotlib only when drawing
 
-    start = time.perf_counter()
-    numbers = compute_fig16(quick)
-    published = (
-        "k0",
-        "mass_ratio",
-        "velocity",
-        "contact_absolute",
-        "status",
-        "onset_velocity",
-    )
-    return Reproduction(
-        key="fig16",
-        title="Fig. 16: local contact dissipation against K0 (h_b/h_r = 1, constrained)",
-        figures=draw.draw_fig16(numbers, figures_dir),
-        table=table_fig16(numbers),
-        numbers=b.jsonable({k: numbers[k] for k in published}),
-        findings=judge_fig16(numbers),
-        wall_time_s=time.perf_counter() - start,
+    published = ("k0", "mass_ratio", "velocity", "contact_absolute", "status", "onset_velocity")
+    return compose(
+        "fig16",
+        "Fig. 16: local contact dissipation against K0 (h_b/h_r = 1, constrained)",
+        quick,
+        figures_dir,
+        compute=compute_fig16,
+        draw=draw.draw_fig16,
+        table=table_fig16,
+        judge=judge_fig16,
+        publish=lambda n: b.jsonable({k: n[k] for k in published}),
     )

@@ -21,13 +21,12 @@ composes them (Fig. 20-24: `mass_velocity`).
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
 
 from . import _batch as b
-from ._common import Finding, Reproduction
+from ._common import Finding, Reproduction, compose
 
 RESTORE_TOLERANCE = 0.01  # of K0, dissipated by the stiffer structure after t_R
 FIG19 = (
@@ -243,16 +242,16 @@ def judge_fig19(numbers: dict) -> list[Finding]:
 
 
 def reproduce_fig19(quick: bool, figures_dir: Path) -> Reproduction:
-    start = time.perf_counter()
-    numbers = compute_fig19(quick)
-    return Reproduction(
-        key="fig19",
-        title="Fig. 19: energy histories and the restoring instant (g = 10, v0 = 0.82)",
-        figures=draw_fig19(numbers, figures_dir),
-        table=table_fig19(numbers),
-        numbers=b.jsonable({"cases": numbers["cases"]}),
-        findings=judge_fig19(numbers),
-        wall_time_s=time.perf_counter() - start,
+    return compose(
+        "fig19",
+        "Fig. 19: energy histories and the restoring instant (g = 10, v0 = 0.82)",
+        quick,
+        figures_dir,
+        compute=compute_fig19,
+        draw=draw_fig19,
+        table=table_fig19,
+        judge=judge_fig19,
+        publish=lambda n: b.jsonable({"cases": n["cases"]}),
     )
 
 

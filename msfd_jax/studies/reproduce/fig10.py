@@ -7,13 +7,12 @@ the report's table and verdicts (pure functions of the numbers); `reproduce` com
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
 
 from . import _batch as b
-from ._common import Finding, Reproduction
+from ._common import Finding, Reproduction, compose
 
 TITLE = "Fig. 10-11: energy partition against h_b/h_r (g = 10, v0 = 0.82)"
 
@@ -222,14 +221,14 @@ def judge_fig10(numbers: dict) -> list[Finding]:
 
 
 def reproduce(quick: bool, figures_dir: Path) -> Reproduction:
-    start = time.perf_counter()
-    numbers = compute_fig10(quick)
-    return Reproduction(
-        key="fig10",
-        title=TITLE,
-        figures=draw_fig10(numbers, figures_dir),
-        table=table_fig10(numbers),
-        numbers=b.jsonable(published_fig10(numbers)),
-        findings=judge_fig10(numbers),
-        wall_time_s=time.perf_counter() - start,
+    return compose(
+        "fig10",
+        TITLE,
+        quick,
+        figures_dir,
+        compute=compute_fig10,
+        draw=draw_fig10,
+        table=table_fig10,
+        judge=judge_fig10,
+        publish=lambda n: b.jsonable(published_fig10(n)),
     )

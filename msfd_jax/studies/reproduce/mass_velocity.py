@@ -8,13 +8,12 @@ them.
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
 
 from . import _batch as b
-from ._common import Finding, Reproduction
+from ._common import Finding, Reproduction, compose
 from .contact import h1_table, with_g10
 from .energy import HALF_PI
 
@@ -239,16 +238,16 @@ def judge_fig20_21(d: dict) -> list[Finding]:
 
 
 def reproduce_fig20_21(quick: bool, figures_dir: Path) -> Reproduction:
-    start = time.perf_counter()
-    d = compute_fig20_21(quick)
-    return Reproduction(
-        key="fig20_21",
-        title="Fig. 20-21: effects of the attached mass and the initial velocity",
-        figures=draw_fig20_21(d, figures_dir),
-        table=table_fig20_21(d),
-        numbers=b.jsonable(d),
-        findings=judge_fig20_21(d),
-        wall_time_s=time.perf_counter() - start,
+    return compose(
+        "fig20_21",
+        "Fig. 20-21: effects of the attached mass and the initial velocity",
+        quick,
+        figures_dir,
+        compute=compute_fig20_21,
+        draw=draw_fig20_21,
+        table=table_fig20_21,
+        judge=judge_fig20_21,
+        publish=b.jsonable,
     )
 
 
@@ -339,14 +338,14 @@ def judge_fig23_24(numbers: dict) -> list[Finding]:
 
 
 def reproduce_fig23_24(quick: bool, figures_dir: Path) -> Reproduction:
-    start = time.perf_counter()
-    numbers = compute_fig23_24(quick)
-    return Reproduction(
-        key="fig23_24",
-        title="Fig. 23-24: mass and velocity effects, h_b/h_r = 1, constrained",
-        figures=draw_fig23_24(numbers, figures_dir),
-        table=table_fig23_24(numbers),
-        numbers=b.jsonable({"mass": numbers["mass"], "velocity": numbers["velocity"]}),
-        findings=judge_fig23_24(numbers),
-        wall_time_s=time.perf_counter() - start,
+    return compose(
+        "fig23_24",
+        "Fig. 23-24: mass and velocity effects, h_b/h_r = 1, constrained",
+        quick,
+        figures_dir,
+        compute=compute_fig23_24,
+        draw=draw_fig23_24,
+        table=table_fig23_24,
+        judge=judge_fig23_24,
+        publish=lambda n: b.jsonable({"mass": n["mass"], "velocity": n["velocity"]}),
     )

@@ -15,7 +15,6 @@ from those numbers alone) and `_draw_quasistatic` (the figures).
 from __future__ import annotations
 
 import functools
-import time
 from pathlib import Path
 
 import jax
@@ -32,7 +31,7 @@ from msfd_jax.studies.references.appendix import (
     initial_collapse_load,
     paper_phase_one,
 )
-from msfd_jax.studies.reproduce._common import Finding, Reproduction
+from msfd_jax.studies.reproduce._common import Finding, Reproduction, compose
 
 jax.config.update("jax_enable_x64", True)
 
@@ -267,16 +266,16 @@ def reproduce_fig17(quick: bool, figures_dir: Path) -> Reproduction:
     """Fig. 17(c): the MS-FD half ring pressed slowly by a plate against the Appendix."""
     from . import _draw_quasistatic as draw  # matplotlib only when drawing
 
-    t0 = time.perf_counter()
-    numbers = compute_fig17(quick)
-    return Reproduction(
-        key="fig17",
-        title="Fig. 17(c): half ring under a rigid plate, MS-FD against the Appendix",
-        figures=draw.draw_fig17(numbers, figures_dir),
-        table=table_fig17(numbers),
-        numbers={k: v for k, v in numbers.items() if k not in ("quick", "plot")},
-        findings=judge_fig17(numbers),
-        wall_time_s=time.perf_counter() - t0,
+    return compose(
+        "fig17",
+        "Fig. 17(c): half ring under a rigid plate, MS-FD against the Appendix",
+        quick,
+        figures_dir,
+        compute=compute_fig17,
+        draw=draw.draw_fig17,
+        table=table_fig17,
+        judge=judge_fig17,
+        publish=lambda n: {k: v for k, v in n.items() if k not in ("quick", "plot")},
     )
 
 
@@ -468,14 +467,14 @@ def reproduce_fig18_22(quick: bool, figures_dir: Path) -> Reproduction:
     """Fig. 18 (h_b/h_r = 3, free) and Fig. 22 (2.5, constrained): ring and beam, quasi-static."""
     from . import _draw_quasistatic as draw  # matplotlib only when drawing
 
-    t0 = time.perf_counter()
-    numbers = compute_fig18_22(quick)
-    return Reproduction(
-        key="fig18_22",
-        title="Fig. 18 and 22: quasi-static load-deformation of the ring and the beam",
-        figures=draw.draw_fig18_22(numbers, figures_dir),
-        table=table_fig18_22(numbers),
-        numbers={k: v for k, v in numbers.items() if k not in ("detail", "plot")},
-        findings=judge_fig18_22(numbers),
-        wall_time_s=time.perf_counter() - t0,
+    return compose(
+        "fig18_22",
+        "Fig. 18 and 22: quasi-static load-deformation of the ring and the beam",
+        quick,
+        figures_dir,
+        compute=compute_fig18_22,
+        draw=draw.draw_fig18_22,
+        table=table_fig18_22,
+        judge=judge_fig18_22,
+        publish=lambda n: {k: v for k, v in n.items() if k not in ("detail", "plot")},
     )

@@ -24,13 +24,12 @@ numbers alone; `reproduce` composes them.
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
 
 from . import _batch as b
-from ._common import Finding, Reproduction
+from ._common import Finding, Reproduction, compose
 
 TITLE = "Fig. 13-14: shapes, contact pairs and the 'U' vs 'W' final ring (g = 10, v0 = 0.82)"
 SHOWCASE = 2.5  # Fig. 13
@@ -301,16 +300,16 @@ def table_fig13_14(numbers: dict) -> str:
 
 
 def reproduce(quick: bool, figures_dir: Path) -> Reproduction:
-    start = time.perf_counter()
-    numbers = compute_fig13_14(quick)
-    return Reproduction(
-        key="fig13_14",
-        title=TITLE,
-        figures=draw_fig13_14(numbers, figures_dir),
-        table=table_fig13_14(numbers),
-        numbers=b.jsonable({"cases": numbers["cases"], "sweep": numbers["sweep"]}),
-        findings=judge_fig13_14(numbers),
-        wall_time_s=time.perf_counter() - start,
+    return compose(
+        "fig13_14",
+        TITLE,
+        quick,
+        figures_dir,
+        compute=compute_fig13_14,
+        draw=draw_fig13_14,
+        table=table_fig13_14,
+        judge=judge_fig13_14,
+        publish=lambda n: b.jsonable({"cases": n["cases"], "sweep": n["sweep"]}),
     )
 
 
