@@ -1,5 +1,5 @@
 """The house's layout (issue 10): no import cycle in `msfd_jax` or `optimise`, and the solver
-path (one collision) loads no matplotlib."""
+path (one collision) loads no matplotlib, and no source file is over 500 lines."""
 
 import ast
 import subprocess
@@ -86,3 +86,13 @@ def test_the_solver_path_imports_no_matplotlib():
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip().splitlines()[-1] == "False", done.stdout
+
+
+def test_no_source_file_is_over_500_lines():
+    # issue 10: one concept per file; the largest today is studies/reproduce/quasistatic.py
+    long = {
+        str(path.relative_to(ROOT)): n
+        for path in _modules().values()
+        if (n := len(path.read_text().splitlines())) > 500
+    }
+    assert not long, long

@@ -35,6 +35,7 @@ from . import _batch as b
 from ._common import Finding, Reproduction, compose
 
 WINDOW = 0.02
+H1_BASE = dict(thickness_ratio=1.0, axial_constraint=1.0)  # Fig. 16 and 23-24
 STAGE = 0.05  # the collision stage of Fig. 15a ("only the initial very brief period")
 FIG15_CASES = (
     dict(thickness_ratio=2.5, axial_constraint=1.0),  # Fig. 13's case
@@ -104,6 +105,33 @@ def segment_frequencies(quick: bool) -> dict[str, float]:
     )
 
 
+def two_mass_first_impact(row: dict, quick: bool) -> dict[str, float]:
+    """The first impact as two masses: the apex S at v0 against the beam's mid-point O at rest,
+    joined by the S-O contact spring (the independent check of docs/validation.md).
+
+    Elastic peak force v0 sqrt(k mu) and angular frequency sqrt(k / mu), mu the reduced mass
+    of the two nodal masses; the pair yields when the peak passes f_y, i.e. above
+    v0 = f_y / sqrt(k mu). Constants read from the scene (audited in tests/test_units.py).
+    """
+    from ..._params import CollisionParams
+    from ..._scene import ring_on_beam
+
+    params = CollisionParams(**row)
+    scene = ring_on_beam(params, b.mesh(quick))
+    contact, ring, beam = scene.contacts[0], *scene.chains
+    k, f_y = float(contact.stiffness[0, 0]), float(contact.yield_force[0, 0])
+    m_s, m_o = float(ring.mass[0]), float(beam.mass[0])
+    mu = m_s * m_o / (m_s + m_o)
+    return dict(
+        k=k,
+        f_y=f_y,
+        mu=mu,
+        omega=float(np.sqrt(k / mu)),
+        peak=float(params.velocity) * float(np.sqrt(k * mu)),
+        onset_velocity=f_y / float(np.sqrt(k * mu)),
+    )
+
+
 def _fig15_case(row: dict, fine: b.Run, whole: b.Run) -> tuple[dict, dict]:
     """One case of Fig. 15: (its numbers, its force curves for the figure)."""
     force_f = fine.history["contact_force"].sum(-1)
@@ -151,6 +179,7 @@ def compute_fig15(quick: bool) -> dict:
         cases=[numbers for numbers, _ in cases],
         segment=segment_frequencies(quick),
         curves=[curves for _, curves in cases],
+        two_mass=two_mass_first_impact(rows[0], quick),
     )
 
 
@@ -221,7 +250,8 @@ def judge_fig15(numbers: dict) -> list[Finding]:
             f"{seg['axial']:.0f}, bending {seg['bending']:.0f}",
             bool(10**2.5 <= show["omega_stage"] <= 10**3.5),  # "of the order of 10^3"
             "Fig. 15a shows only the initial brief period: there the force oscillates at the "
-            "contact pair's own frequency sqrt(k/mu) (1253 for S-O) and the segments' (10^3); "
+            "contact pair's own frequency sqrt(k/mu) "
+            f"({numbers['two_mass']['omega']:.0f} for S-O) and the segments' (10^3); "
             "over tau <= 0.5 the slower bending of a few segments (10^2) dominates",
         ),
         Finding(
@@ -276,7 +306,7 @@ def h1_series(quick: bool) -> dict[str, list[dict]]:
         velocity = (0.3, 0.5, 0.82, 1.0, 1.2, 1.4, 1.6, 1.8, 2.0)
         mass_paper = (0.5, 2.0, 5.0, 20.0, 35.0, 50.0, 70.0)
         mass_fast = (2.0, 5.0, 20.0, 40.0)
-    base = dict(thickness_ratio=1.0, axial_constraint=1.0)
+    base = H1_BASE
     return {
         "velocity": [dict(base, mass_ratio=10.0, velocity=v) for v in velocity],
         "mass_v082": [dict(base, mass_ratio=g, velocity=0.82) for g in mass_paper],
@@ -329,6 +359,7 @@ def compute_fig16(quick: bool) -> dict:
         status=table["status"],
         onset_velocity=onset_velocity(table["velocity"][v], absolute[v]),
         series=series,
+        two_mass=two_mass_first_impact(H1_BASE | {"mass_ratio": 10.0, "velocity": 0.82}, quick),
     )
 
 
@@ -354,6 +385,7 @@ def table_fig16(numbers: dict) -> str:
 def judge_fig16(numbers: dict) -> list[Finding]:
     """The verdicts on Fig. 16: small, mass-independent, growing with v0, non-zero."""
     table, absolute, series = numbers, numbers["contact_absolute"], numbers["series"]
+    two = numbers["two_mass"]
     v = series["velocity (g = 10)"]
     vel = table["velocity"][v]
     below, onset = numbers["onset_velocity"]
@@ -402,9 +434,10 @@ def judge_fig16(numbers: dict) -> list[Finding]:
             f"v0 = 0.82: {absolute[slow].min():.4f}-{absolute[slow].max():.4f} M_pr over "
             f"every mass; dissipation starts between v0 = {below:g} and {onset:g}",
             bool(absolute[slow].min() > 0),
-            "the first impact's two-mass peak force v0 sqrt(k mu) (S-O pair: 41.9 at "
-            "h_b/h_r = 1, v0 = 0.82) passes the pair's yield force Y b l_t (20 M_pr/R) above "
-            "v0 ~ 0.4, so the contact flattens plastically in the collision stage",
+            "the first impact's two-mass peak force v0 sqrt(k mu) (S-O pair: "
+            f"{two['peak']:.1f} at h_b/h_r = 1, v0 = 0.82) passes the pair's yield force "
+            f"Y b l_t ({two['f_y']:.0f} M_pr/R) above v0 = {two['onset_velocity']:.2f}, so the "
+            "contact flattens plastically in the collision stage",
         ),
     ]
 

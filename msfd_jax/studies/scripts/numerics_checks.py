@@ -3,9 +3,14 @@
 - µs per step of the showcase with 1 and 8 Verlet sub-steps per diffrax step;
 - the energy-error order of an elastic-only collision, smoothed and sharp contact;
 - the settle-window study: dissipated fractions against the stop time for three step sizes;
-- contact dissipation of the constrained h_b/h_r = 1 collision at v0 = 0.4, 0.82, 1.6.
+- contact dissipation of the constrained h_b/h_r = 1 collision at v0 = 0.4, 0.82, 1.6;
+- rounding amplification on the coarse mesh: a vmapped program against a loop of single runs,
+  sharp and smoothed contact (why the batched-vs-single tests smooth it, tests/conftest.py);
+- the smoothed contact's approach to the sharp law as the width falls below f_y/k;
+- the coarse reproduction sweep's energy balance at safety 0.7 and 0.35
+  (tests/test_reproduction.py).
 
-    python -m msfd_jax.studies.scripts.numerics_checks     # ~3 min on the 2-core machine
+    python -m msfd_jax.studies.scripts.numerics_checks     # ~5 min on the 2-core machine
 Writes benchmarks/results/numerics_checks.md.
 """
 
@@ -143,6 +148,77 @@ def contact_at_unit_thickness(lines):
     lines.append("")
 
 
+def rounding_amplification(lines):
+    """vmap over three thicknesses against a loop of single runs, coarse mesh (issue 9)."""
+    lines += [
+        "## Rounding amplification, coarse mesh: vmap against a loop of single runs",
+        "",
+        "Beam dissipation / K0 for h_b/h_r = 0.8, 1.7, 3.1 (constrained, g = 10, v0 = 0.82); "
+        "max |vmapped - looped| over the three.",
+        "",
+        "| tau | sharp contact | contact smoothing 1e-3 |",
+        "|---|---|---|",
+    ]
+    thickness = jnp.array([0.8, 1.7, 3.1])
+    for t_max in (0.1, 0.2, 0.3, 0.6):
+        cells = []
+        for width in (0.0, 1e-3):
+
+            def beam(h, t_max=t_max, width=width):
+                scene = m.ring_on_beam(
+                    m.CollisionParams(thickness_ratio=h), SMALL, contact_smoothing=width
+                )
+                settings = m.Settings(
+                    t_max=t_max, history_points=3, shape_times=(), max_steps=2**13
+                )
+                sol = m.simulate(scene, settings)
+                return (sol.bending[1] + sol.axial[1]) / sol.k0
+
+            batched = jax.vmap(beam)(thickness)
+            looped = jnp.stack([beam(h) for h in thickness])
+            cells.append(f"{float(jnp.max(jnp.abs(batched - looped))):.1e}")
+        lines.append(f"| {t_max} | {cells[0]} | {cells[1]} |")
+    lines.append("")
+
+
+def contact_smoothing_limit(lines):
+    """Showcase, paper mesh: max change of the dissipated fractions against the sharp run."""
+    keys = ("beam_bending", "beam_axial", "ring_bending", "contact")
+    sharp = m.run().fractions
+    lines += [
+        "## Contact smoothing against the sharp law (showcase, paper mesh, default step)",
+        "",
+        "f_y/k of the paper section's contact pairs is 2-4e-4 R.",
+        "",
+        "| contact smoothing w [R] | max change of the dissipated fractions [K0] |",
+        "|---|---|",
+    ]
+    for width in (1e-4, 1e-5, 1e-6):
+        f = m.run(contact_smoothing=width).fractions
+        lines.append(f"| {width:g} | {max(abs(f[k] - sharp[k]) for k in keys):.2e} |")
+    lines.append("")
+
+
+def coarse_reproduction_balance(lines):
+    """The seven collisions of tests/test_reproduction.py: energy balance by step size."""
+    thickness = [dict(thickness_ratio=h) for h in (0.5, 2.5, 4.5)]
+    fast = [dict(thickness_ratio=1.0, velocity=1.6, mass_ratio=g) for g in (5.0, 20.0)]
+    speeds = [dict(thickness_ratio=1.0, velocity=v) for v in (1.2, 2.0)]
+    rows = thickness + fast + speeds
+    lines += [
+        "## Coarse-mesh reproduction sweep: energy balance by step (tests/test_reproduction.py)",
+        "",
+        "| safety | max abs energy balance error [K0] | statuses |",
+        "|---|---|---|",
+    ]
+    for safety in (0.7, 0.35):
+        settings = m.Settings(safety=safety, history_points=2, shape_times=())
+        table = m.sweep(rows, SMALL, settings, chunk_size=len(rows), progress=False)
+        error = float(np.max(np.abs(table["energy_balance_error"])))
+        lines.append(f"| {safety} | {error:.1e} | {', '.join(sorted(set(table['status'])))} |")
+    lines.append("")
+
+
 def main() -> int:
     lines = [
         "# Numerics checks quoted in docs/model.md and the issue notes",
@@ -152,7 +228,16 @@ def main() -> int:
         "2-core CPU, not pinned).",
         "",
     ]
-    for part in (substeps, energy_order, settle_window, contact_at_unit_thickness):
+    parts = (
+        substeps,
+        energy_order,
+        settle_window,
+        contact_at_unit_thickness,
+        rounding_amplification,
+        contact_smoothing_limit,
+        coarse_reproduction_balance,
+    )
+    for part in parts:
         part(lines)
         print("\n".join(lines[-8:]), flush=True)
     text = "\n".join(lines)

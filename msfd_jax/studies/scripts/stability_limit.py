@@ -34,6 +34,7 @@ CASES = {
     "thick beam (h_b/h_r 5, free)": m.CollisionParams(thickness_ratio=5.0, axial_constraint=0.0),
     "fast (h_b/h_r 1, v0 1.6)": m.CollisionParams(thickness_ratio=1.0, velocity=1.6),
 }
+COARSE = m.Mesh(6, 8, 2)  # the test mesh: the showcase on it, the last row
 
 
 def stable(scene, dt_crit, factor) -> bool:
@@ -75,8 +76,10 @@ def main():
         "| within 10 % above |",
         "|---|---|---|---|---|---|",
     ]
-    for name, params in CASES.items():
-        scene = m.ring_on_beam(params, m.Mesh())
+    cases = [(name, params, m.Mesh()) for name, params in CASES.items()]
+    cases.append(("showcase, coarse test mesh 6/8+2", m.CollisionParams(), COARSE))
+    for name, params, mesh in cases:
+        scene = m.ring_on_beam(params, mesh)
         dt_crit, lo, hi = limit(scene)
         # the limit of the structures alone (no contact springs), as a factor of dt_crit
         bare = float(m.critical_step(eqx.tree_at(lambda s: s.contacts, scene, ()))) / dt_crit
