@@ -27,11 +27,12 @@ from ._scene import (  # noqa: E402
     ring_on_plate,
 )
 from ._simulate import Settings, Solution, simulate  # noqa: E402
-from ._sweep import SweepTable, sweep  # noqa: E402
+from ._sweep import SweepTable, solve_collisions, sweep  # noqa: E402
 
 __all__ = [
     "SweepTable",
     "sweep",
+    "solve_collisions",
     "FRACTION_KEYS",
     "Collision",
     "SimulationError",

@@ -17,7 +17,7 @@ import itertools
 import math
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -226,6 +226,48 @@ def sweep(
     Raises ValueError/TypeError, before anything is compiled, for a bad value.
     """
     columns, grid = collisions(grid_or_list, base)
+    start = time.perf_counter()
+    bar = _Progress(len(columns["thickness_ratio"]), enabled=progress)
+    out = solve_collisions(
+        columns,
+        mesh,
+        settings,
+        chunk_size=chunk_size,
+        contact_smoothing=contact_smoothing,
+        yield_smoothing=yield_smoothing,
+        shard=shard,
+        on_rows=lambda rows, outputs: bar.update(len(rows)),
+        on_stage=bar.note,
+    )
+    bar.close()
+    return SweepTable({**columns, **out}, grid, time.perf_counter() - start)
+
+
+def solve_collisions(
+    columns: Mapping[str, np.ndarray],
+    mesh: Mesh = Mesh(),
+    settings: Settings = SWEEP_SETTINGS,
+    *,
+    chunk_size: int = DEFAULT_CHUNK,
+    contact_smoothing: float = 0.0,
+    yield_smoothing: float = 0.0,
+    shard: bool = False,
+    on_rows: Callable[[np.ndarray, dict[str, np.ndarray]], None] | None = None,
+    on_stage: Callable[[str], None] | None = None,
+) -> dict[str, np.ndarray]:
+    """The output columns (`OUTPUTS`) of the collisions in `columns`, in their order.
+
+    The unit of work of every sweep (in process, or one task of a cluster sweep): `columns`
+    maps every `INPUTS` name to a float64 array (one entry per collision, as `collisions`
+    makes them). They are validated first (ValueError/TypeError before anything compiles).
+    `on_rows(rows, outputs)`, when given, is called as soon as a group of collisions has
+    finished, with their positions in `columns` and their output columns (for writing rows
+    as they finish, and for progress); `on_stage(text)` names the stage that starts.
+    """
+    missing = sorted(set(INPUTS) - set(columns))
+    if missing:
+        raise ValueError(f"solve_collisions needs every input column; missing {missing}")
+    columns = {k: np.asarray(columns[k], dtype=np.float64) for k in INPUTS}
     # CollisionParams validates arrays elementwise; `validate` adds what needs the mesh.
     params = CollisionParams(**columns)
     validate(params, mesh)
@@ -234,29 +276,26 @@ def sweep(
     settings = _sweep_settings(settings)
     n = len(columns["thickness_ratio"])
     chunks = [range(s, min(s + chunk_size, n)) for s in range(0, n, chunk_size)]
-    bar = _Progress(n, enabled=progress)
-    start = time.perf_counter()
+    note = on_stage or (lambda text: None)
     # every stability limit first (a small vmapped program): one step bound for all chunks,
     # and the sharded solver then needs no eigen-solve inside its devices' programs
-    bar.note("stability limits")
+    note("stability limits")
     columns["_dt_critical"] = np.concatenate(
         [_run_chunk(_critical_chunk, columns, c, chunk_size, mesh, smoothing) for c in chunks]
     )
     if settings.max_steps is None:
         bound = step_bound(columns["_dt_critical"], settings)
         settings = dataclasses.replace(settings, max_steps=bound)
-    bar.note("collisions")
+    note("collisions")
     solve = _sharded_solver(devices) if devices else _solve_chunk
     parts = []
     for c in chunks:
         tick = time.perf_counter()
         outputs, solution = _run_chunk(solve, columns, c, chunk_size, mesh, smoothing, settings)
         parts.append(_rows(outputs, solution, mesh, time.perf_counter() - tick))
-        bar.update(len(c))
-    bar.close()
-    out = {k: np.concatenate([p[k] for p in parts]) for k in OUTPUTS}
-    del columns["_dt_critical"]
-    return SweepTable({**columns, **out}, grid, time.perf_counter() - start)
+        if on_rows is not None:
+            on_rows(np.asarray(c), parts[-1])
+    return {k: np.concatenate([p[k] for p in parts]) for k in OUTPUTS}
 
 
 def step_bound(dt_critical: np.ndarray, settings: Settings) -> int:
