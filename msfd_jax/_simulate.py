@@ -17,7 +17,11 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from ._dynamics import State, critical_step, initial_state
+from ._core import chain_state, history_of, solve
+from ._dynamics import State, critical_step
+from ._engine import BatchState, make_clock
+from ._engine import initial_state as engine_initial_state
+from ._flat import flatten
 from ._params import _check_count, _check_value
 from ._results import (  # noqa: F401  (the former constants, re-exported)
     ENERGY_BALANCE,
@@ -29,7 +33,6 @@ from ._results import (  # noqa: F401  (the former constants, re-exported)
     TIME_LIMIT,
 )
 from ._scene import Scene
-from ._solver import VelocityVerlet, rate_form
 
 _critical_step = eqx.filter_jit(critical_step)
 
@@ -139,45 +142,6 @@ class Solution(eqx.Module):
         return (total - self.k0 - self.drive_work) / k0
 
 
-def _history(t, y: State, args):
-    scene = args[0]
-    pair_force = tuple(jnp.sum(f) for f in y.contact_force)
-    out = dict(
-        kinetic=y.kinetic(scene),
-        elastic=y.elastic,
-        bending=y.bending,
-        axial=y.axial,
-        contact=y.contact,
-        contact_force=jnp.stack(pair_force) if pair_force else jnp.zeros(1),
-        contact_pairs=tuple(f > 0 for f in y.contact_force),
-        reaction=y.reaction,
-        drive_work=y.drive_work,
-    )
-    if not scene.contacts:
-        del out["contact_pairs"]  # diffrax's output buffers cannot hold empty tuples
-    return out
-
-
-def _shapes(t, y: State, args):
-    return y.x
-
-
-def _final(t, y: State, args):
-    # diffrax's output buffers cannot hold empty tuples (a scene without contacts)
-    fields = ((f.name, getattr(y, f.name)) for f in dataclasses.fields(y))
-    return {name: v for name, v in fields if not (isinstance(v, tuple) and not v)}
-
-
-def _unpack_final(saved: dict) -> State:
-    last = jax.tree_util.tree_map(lambda a: a[-1], saved)
-    return State(**{f.name: last.get(f.name, ()) for f in dataclasses.fields(State)})
-
-
-def _energy_error(scene: Scene, y: State, k0):
-    total = jnp.sum(y.kinetic(scene)) + y.elastic + y.dissipated
-    return (total - k0 - y.drive_work) / jnp.where(k0 > 0, k0, 1.0)
-
-
 def step_size(scene: Scene, settings: Settings, dt_critical=None):
     """(dt, dt_crit): the step used and the stability limit (not differentiated).
 
@@ -207,62 +171,38 @@ def max_steps_for(scene: Scene, settings: Settings) -> int:
 def _simulate(
     scene: Scene, settings: Settings, max_steps: int, adjoint, dt_critical=None
 ) -> Solution:
-    y0 = initial_state(scene)
-    k0 = scene.initial_kinetic_energy
+    # the batched core with a batch of one (issue 11): the diffrax clock is then the
+    # collision's own physical time, so histories and shapes are saved at physical times
+    flat = flatten(scene)
     dt, dt_crit = step_size(scene, settings, dt_critical)
-    tolerance = settings.settle_tolerance * k0
-
-    def stop(t, y, args, **kwargs):
-        err = _energy_error(scene, y, k0)
-        broken = ~jnp.isfinite(err) | (jnp.abs(err) > settings.energy_guard)
-        if not settings.stop_when_settled:
-            return broken
-        quiet = (t - y.last_dissipation > settings.settle_window) & (t >= settings.t_min)
-        # quiet is not enough (a slow, heavy ring has not begun to yield): either the
-        # structures have been apart for a window, or too little energy is left to matter
-        apart = t - y.last_contact > settings.settle_window
-        spent = jnp.sum(y.kinetic(scene)) + y.elastic <= settings.settle_residual * k0
-        return broken | (quiet & (apart | spent))
-
+    clock = make_clock(flat, dt[None], settings, max_steps)
+    y0 = engine_initial_state(flat)
+    k0 = clock.k0[0]
     ts = jnp.linspace(0.0, settings.t_max, settings.history_points)
     shape_ts = jnp.asarray(sorted({0.0, *settings.shape_times}), float)
     saveat = diffrax.SaveAt(
         subs=[
-            diffrax.SubSaveAt(ts=ts, fn=_history),
-            diffrax.SubSaveAt(ts=shape_ts, fn=_shapes),
-            diffrax.SubSaveAt(t1=True, fn=_final),
+            diffrax.SubSaveAt(ts=ts, fn=lambda t, y, args: history_of(flat, y)),
+            diffrax.SubSaveAt(ts=shape_ts, fn=lambda t, y, args: chain_state(flat, y).x),
+            # diffrax's output buffers cannot hold empty tuples (a scene without contacts)
+            diffrax.SubSaveAt(t1=True, fn=lambda t, y, args: _without_empty(y)),
         ]
     )
-    sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(rate_form),
-        VelocityVerlet(settings.substeps),
-        t0=0.0,
-        t1=settings.t_max,
-        dt0=dt * settings.substeps,
-        y0=y0,
-        args=(scene, tolerance),
-        saveat=saveat,
-        stepsize_controller=diffrax.ConstantStepSize(),
-        event=diffrax.Event(stop),
-        max_steps=max_steps,
+    sol = solve(
+        flat, clock, y0, settings, max_steps=max_steps, dt0=clock.dt0[0], saveat=saveat,
         adjoint=adjoint,
-        throw=False,
-    )
+    )  # fmt: skip
     hist, shapes, last = sol.ys
-    final = _unpack_final(last)
-    t_end = sol.ts[2][-1]
-    err = _energy_error(scene, final, k0)
+    last = _with_empty(jax.tree_util.tree_map(lambda a: a[-1], last))
+    final = chain_state(flat, last)
+    t_end = last.t[0]
     code = jnp.where(
-        ~jnp.isfinite(err),
-        RESULTS.non_finite,
-        jnp.where(
-            jnp.abs(err) > settings.energy_guard,
-            RESULTS.energy_balance_broken,
-            jnp.where(
-                sol.result == diffrax.RESULTS.max_steps_reached,
-                RESULTS.max_steps,
-                jnp.where(t_end < settings.t_max, RESULTS.settled, RESULTS.time_limit),
-            ),
+        last.done[0] > 0,
+        last.code[0].astype(int),
+        jnp.where(  # diffrax stopped first (its max_steps): never with the clock's own bound
+            sol.result == diffrax.RESULTS.max_steps_reached,
+            RESULTS.max_steps,
+            RESULTS.time_limit,
         ),
     )
     kinetic = final.kinetic(scene)
@@ -273,7 +213,7 @@ def _simulate(
     return Solution(
         result=code,
         t_end=t_end,
-        steps=sol.stats["num_steps"] * settings.substeps,
+        steps=(last.k[0] * settings.substeps).astype(int),
         dt=dt,
         dt_critical=dt_crit,
         k0=k0,
@@ -290,6 +230,15 @@ def _simulate(
         shape_ts=shape_ts,
         shapes=shapes,
     )
+
+
+def _without_empty(y: BatchState) -> dict:
+    fields = ((f.name, getattr(y, f.name)) for f in dataclasses.fields(y))
+    return {name: v for name, v in fields if not (isinstance(v, tuple) and not v)}
+
+
+def _with_empty(saved: dict) -> BatchState:
+    return BatchState(**{f.name: saved.get(f.name, ()) for f in dataclasses.fields(BatchState)})
 
 
 def simulate(

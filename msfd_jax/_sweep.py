@@ -29,6 +29,7 @@ import numpy as np
 from ._dynamics import critical_step
 from ._outputs import FRACTION_KEYS, diagnose, fractions
 from ._params import CollisionParams, Mesh, validate
+from ._queue import run_queue
 from ._results import FAILED, RESULTS
 from ._scene import ring_on_beam
 from ._simulate import Settings, simulate
@@ -53,6 +54,8 @@ OUTPUTS = (
 # so by default it saves two history samples and no shapes (the outputs do not depend on them).
 SWEEP_SETTINGS = Settings(history_points=2, shape_times=())
 DEFAULT_CHUNK = 64
+# compile and run time of the last in-process sweep (slots, segments, compile_s, run_s)
+LAST_TIMING: dict = {}
 
 
 @dataclasses.dataclass
@@ -287,15 +290,45 @@ def solve_collisions(
         bound = step_bound(columns["_dt_critical"], settings)
         settings = dataclasses.replace(settings, max_steps=bound)
     note("collisions")
-    solve = _sharded_solver(devices) if devices else _solve_chunk
-    parts = []
-    for c in chunks:
-        tick = time.perf_counter()
-        outputs, solution = _run_chunk(solve, columns, c, chunk_size, mesh, smoothing, settings)
-        parts.append(_rows(outputs, solution, mesh, time.perf_counter() - tick))
+    if devices:  # the chunked, sharded path: each device runs its part of a chunk
+        solve = _sharded_solver(devices)
+        parts = []
+        for c in chunks:
+            tick = time.perf_counter()
+            outputs, solution = _run_chunk(solve, columns, c, chunk_size, mesh, smoothing, settings)
+            parts.append(_rows(outputs, solution, mesh, time.perf_counter() - tick))
+            if on_rows is not None:
+                on_rows(np.asarray(c), parts[-1])
+        return {k: np.concatenate([p[k] for p in parts]) for k in OUTPUTS}
+    # the batched core: `chunk_size` slots refilled from the queue as collisions stop
+    parts, order = [], []
+    scene = ring_on_beam(CollisionParams(), mesh)
+
+    def done(rows, solution, wall):
+        outputs = fractions(solution, scene)
+        outputs["energy_balance_error"] = solution.energy_balance_error
+        part = _rows(outputs, solution, mesh, float(np.sum(wall)))
+        part["wall_time_s"] = np.asarray(wall, np.float64)  # each one's share, no compile
+        parts.append(part)
+        order.append(np.asarray(rows))
         if on_rows is not None:
-            on_rows(np.asarray(c), parts[-1])
-    return {k: np.concatenate([p[k] for p in parts]) for k in OUTPUTS}
+            on_rows(np.asarray(rows), part)
+
+    names = [f.name for f in dataclasses.fields(CollisionParams)]
+    timing = run_queue(
+        {k: columns[k] for k in names},
+        columns["_dt_critical"],
+        mesh,
+        settings,
+        smoothing,
+        settings.max_steps,
+        slots=chunk_size,
+        on_done=done,
+    )
+    LAST_TIMING.clear()
+    LAST_TIMING.update(timing)
+    position = np.argsort(np.concatenate(order), kind="stable")
+    return {k: np.concatenate([p[k] for p in parts])[position] for k in OUTPUTS}
 
 
 def step_bound(dt_critical: np.ndarray, settings: Settings) -> int:

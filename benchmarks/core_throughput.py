@@ -1,0 +1,179 @@
+"""The batched core against the numba reference, side by side in one process on one core.
+
+Issue 11's goals 1 and 3:
+- **sweep**: the 64 collisions of `sweep_throughput.py` (h_b/h_r 0.25-5 x 16, free/held,
+  g = 5, 10; paper mesh, default sweep settings). numba loops over them one by one; msfd_jax
+  runs them through `sweep` with 8 ... 64 slots (refilled as collisions stop). The figure is
+  the marginal cost per collision-step: run time (compilation excluded: `LAST_TIMING`) over
+  the total Verlet steps of all collisions; goal: <= 1/3 of numba's per-step cost.
+- **showcase**: one collision in process, jax (a batch of one, default `Settings` with
+  histories, and the lean sweep settings) against numba at the same step; goal: <= 1/3 of
+  numba's time.
+
+    python benchmarks/core_throughput.py            # writes benchmarks/results/core.{json,md}
+    python benchmarks/core_throughput.py --slots 16 64 --repeats 1
+
+Re-executes itself under ``taskset -c 0`` (one core for both) when available.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+RESULTS = HERE / "results"
+sys.path.insert(0, str(HERE))
+
+
+def _pin():
+    if os.environ.get("MSFD_BENCH_PINNED") or shutil.which("taskset") is None:
+        return
+    env = dict(os.environ, MSFD_BENCH_PINNED="1")
+    raise SystemExit(subprocess.call(["taskset", "-c", "0", sys.executable, *sys.argv], env=env))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--slots", nargs="+", type=int, default=[8, 16, 32, 64])
+    parser.add_argument("--repeats", type=int, default=2)
+    args = parser.parse_args()
+    _pin()
+    import jax
+    import numpy as np
+    from numba_reference import Reference
+    from sweep_throughput import GRID
+
+    import msfd_jax as m
+    from msfd_jax import _sweep
+
+    record: dict = dict(
+        command="python benchmarks/core_throughput.py " + " ".join(sys.argv[1:]),
+        date=datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+        machine=f"{platform.processor() or platform.machine()}, one core (taskset -c 0)",
+        jax=jax.__version__,
+    )
+    # --- the sweep: numba loop over the 64 collisions --------------------------------------
+    columns, _ = _sweep.collisions(GRID)
+    n = len(columns["thickness_ratio"])
+    settings = _sweep.SWEEP_SETTINGS
+    refs = [
+        Reference(m.ring_on_beam(m.CollisionParams(**{k: columns[k][i] for k in columns})),
+                  settings)
+        for i in range(n)
+    ]  # fmt: skip
+    refs[0].compile()
+    best, steps_numba = float("inf"), 0
+    for _ in range(args.repeats):
+        tick = time.perf_counter()
+        outs = [r() for r in refs]
+        best = min(best, time.perf_counter() - tick)
+        steps_numba = sum(o["steps"] for o in outs)
+    numba_step_us = 1e6 * best / steps_numba
+    record["numba_sweep"] = dict(seconds=best, steps=steps_numba, us_per_step=numba_step_us)
+    print(f"numba: 64 collisions {best:.2f} s, {steps_numba} steps, {numba_step_us:.3f} us/step")
+    rows = []
+    for slots in args.slots:
+        m.sweep(GRID, m.Mesh(), settings, chunk_size=slots)  # compile (and cache) first
+        runs = []
+        for _ in range(args.repeats):
+            tick = time.perf_counter()
+            table = m.sweep(GRID, m.Mesh(), settings, chunk_size=slots)
+            wall = time.perf_counter() - tick
+            runs.append((dict(_sweep.LAST_TIMING), wall, table))
+        timing, wall, table = min(runs, key=lambda r: r[0]["run_s"])
+        steps = int(np.sum(table["steps"]))
+        us = 1e6 * timing["run_s"] / steps
+        rows.append(
+            dict(
+                slots=slots,
+                run_s=timing["run_s"],
+                wall_s=wall,
+                compile_s=timing["compile_s"],
+                segments=timing["segments"],
+                steps=steps,
+                us_per_collision_step=us,
+                numba_over_jax=numba_step_us / us,
+                collisions_per_s=n / timing["run_s"],
+            )
+        )
+        print(
+            f"jax slots {slots}: run {timing['run_s']:.2f} s (wall {wall:.2f} s), {steps} steps"
+            f", {us:.3f} us/collision-step, numba/jax {numba_step_us / us:.2f}"
+        )
+    record["jax_sweep"] = rows
+    # --- the showcase ----------------------------------------------------------------------
+    scene = m.ring_on_beam()
+    ref = Reference(scene, m.Settings())
+    ref.compile()
+    t_numba = min(_timed(ref) for _ in range(3))
+    show = {}
+    for name, st in (("default settings", m.Settings()), ("lean settings", settings)):
+        jax.block_until_ready(m.simulate(scene, st))
+        t = min(_timed(lambda st=st: jax.block_until_ready(m.simulate(scene, st)))
+                for _ in range(3))  # fmt: skip
+        show[name] = dict(seconds=t, numba_over_jax=t_numba / t)
+        print(f"showcase jax ({name}) {t * 1e3:.1f} ms, numba {t_numba * 1e3:.1f} ms, "
+              f"numba/jax {t_numba / t:.2f}")  # fmt: skip
+    record["showcase"] = dict(numba_s=t_numba, steps=ref()["steps"], jax=show)
+    RESULTS.mkdir(exist_ok=True)
+    (RESULTS / "core.json").write_text(json.dumps(record, indent=1) + "\n")
+    (RESULTS / "core.md").write_text(_markdown(record))
+
+
+def _timed(fn) -> float:
+    tick = time.perf_counter()
+    fn()
+    return time.perf_counter() - tick
+
+
+def _markdown(r: dict) -> str:
+    ns = r["numba_sweep"]
+    lines = [
+        "# Batched core against the numba reference (issue 11)",
+        "",
+        f"`{r['command'].strip()}` · {r['date']} · {r['machine']} · jax {r['jax']}",
+        "",
+        "## Sweep: the 64 collisions of sweep_throughput.py, paper mesh",
+        "",
+        f"numba, one collision after another: {ns['seconds']:.2f} s for {ns['steps']} steps, "
+        f"**{ns['us_per_step']:.3f} µs/step**.",
+        "",
+        "| slots | run s (no compile) | compile s | segments | µs / collision-step "
+        "| numba / jax | collisions/s |",
+        "|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for row in r["jax_sweep"]:
+        lines.append(
+            f"| {row['slots']} | {row['run_s']:.2f} | {row['compile_s']:.1f} | "
+            f"{row['segments']} | {row['us_per_collision_step']:.3f} | "
+            f"{row['numba_over_jax']:.2f} | {row['collisions_per_s']:.1f} |"
+        )
+    s = r["showcase"]
+    lines += [
+        "",
+        "Goal 1: numba / jax >= 3 (jax's marginal cost per collision-step at most a third).",
+        "",
+        "## One showcase collision in process",
+        "",
+        f"numba {s['numba_s'] * 1e3:.1f} ms ({s['steps']} steps).",
+        "",
+        "| jax | ms | numba / jax |",
+        "|---|---:|---:|",
+    ]
+    for name, row in s["jax"].items():
+        lines.append(f"| {name} | {row['seconds'] * 1e3:.1f} | {row['numba_over_jax']:.2f} |")
+    lines += ["", "Goal 3: numba / jax >= 3.", ""]
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    main()

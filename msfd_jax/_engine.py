@@ -1,0 +1,375 @@
+"""The batched core (issue 11): closed-form forces and the Verlet step on a `FlatScene`.
+
+Every array ends in the batch axis B. The nodal forces are Eq. (10) in closed form, as the
+numba reference writes them, not a `jax.vjp` of the kinematics (tests/test_engine.py checks
+them against autodiff of the elastic energy):
+
+- a bar b = x_{i+1} - x_i with axial force n: dU/db = n b/|b|;
+- a joint theta = phi(b) - phi(a) with moment g = w m: dU/da = g (a_y, -a_x)/|a|^2 and
+  dU/db = g (-b_y, b_x)/|b|^2 (a symmetric start has a = diag(1, -1) b_0; a clamped end or
+  start a fixed a or b);
+- nodal forces F_i = G_i - G_{i-1}, G the summed dU/d(bar);
+- a contact pair with force f along d = x_a - x_b: F_a = f d/|d|, F_b = -f d/|d|.
+
+Each collision of the batch keeps its own step and its own clock (`Clock`): the diffrax time
+of a batched solve is a step counter, and a collision that has stopped is frozen (its state is
+no longer updated) until the sweep refills its slot.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from ._flat import FlatScene, PairLayout
+from ._laws import contact_energy, contact_spring, elastic_plastic
+from ._results import RESULTS
+from ._safe import safe_norm
+
+_MIRROR = jnp.array([1.0, -1.0])[None, :, None]  # diag(1, -1) acting on (n, 2, B) vectors
+
+
+class BatchState(eqx.Module):
+    """What changes during a run, for B collisions (every array ends in B).
+
+    `k` counts the collision's completed diffrax steps and `t` is its time; `done` is 1 once it
+    has stopped, with `code` its result and `t_end` its end time. Energies in units of M_pr.
+    """
+
+    x: Float[Array, "N 2 B"]
+    v: Float[Array, "N 2 B"]
+    a: Float[Array, "N 2 B"]
+    plastic_rotation: Float[Array, "J B"]
+    plastic_strain: Float[Array, "M B"]
+    permanent_set: tuple[Array, ...]
+    bending: Float[Array, "C B"]
+    axial: Float[Array, "C B"]
+    contact: Float[Array, "K B"]
+    elastic: Float[Array, " B"]
+    reaction: Float[Array, " B"]
+    drive_work: Float[Array, " B"]
+    last_dissipation: Float[Array, " B"]
+    dissipation_mark: Float[Array, " B"]
+    last_contact: Float[Array, " B"]
+    t: Float[Array, " B"]
+    k: Float[Array, " B"]
+    done: Float[Array, " B"]
+    code: Float[Array, " B"]
+
+
+class Clock(eqx.Module):
+    """Each collision's time grid: diffrax's ``ConstantStepSize`` grid of its own step.
+
+    The first step ends at `dt0` (= substeps x dt), step k >= 2 at t_max k / n, the last at
+    t_max, with n = ceil(t_max / nextafter(dt0)), as ``diffrax.ConstantStepSize`` makes it, so
+    a collision run alone or in a batch takes the same steps as ``diffeqsolve`` would.
+    """
+
+    dt0: Float[Array, " B"]
+    n: Float[Array, " B"]
+    t_max: Float[Array, " B"]
+    max_steps: Float[Array, " B"]  # diffrax steps allowed (Settings.max_steps)
+    tolerance: Float[Array, " B"]  # settle_tolerance x K0
+    k0: Float[Array, " B"]
+
+
+def make_clock(flat: FlatScene, dt, settings, max_steps) -> Clock:
+    """The clocks of a batch: `dt` (B,) the Verlet step, numbers from `settings`."""
+    dt0 = dt * settings.substeps
+    t_max = jnp.broadcast_to(jnp.asarray(settings.t_max, float), dt0.shape)
+    n = jnp.ceil(t_max / jnp.nextafter(dt0, jnp.inf))
+    k0 = flat.initial_kinetic_energy
+    return Clock(
+        dt0,
+        n,
+        t_max,
+        jnp.broadcast_to(jnp.asarray(max_steps, float), dt0.shape),
+        settings.settle_tolerance * k0,
+        k0,
+    )
+
+
+class Response(eqx.Module):
+    forces: Array
+    plastic_rotation: Array
+    plastic_strain: Array
+    permanent_set: tuple[Array, ...]
+    contact_force: tuple[Array, ...]
+    bending: Array
+    axial: Array
+    contact: Array
+    elastic: Array
+
+
+def _pad(a, before, after):
+    return jnp.pad(a, ((before, after),) + ((0, 0),) * (a.ndim - 1))
+
+
+def _chain_response(flat: FlatScene, c, x, rotation_p, strain_p):
+    """One chain's springs at x: (forces (n, 2, B), new plastic parts, dissipation, elastic)."""
+    n = c.n_nodes
+    xc = x[c.node : c.node + n]
+    bars = xc[1:] - xc[:-1]  # (n-1, 2, B)
+    ys = flat.yield_smoothing[None]  # (1, B): the laws see arrays of one rank
+    sl_b = slice(c.bar, c.bar + n - 1)
+    l0, kappa = flat.rest_length[sl_b], flat.axial_modulus[sl_b]
+    length = safe_norm(bars, axis=1)
+    strain = (length - l0) / l0
+    axial_force, strain1, d_axial = elastic_plastic(
+        strain, strain_p[sl_b], kappa, flat.plastic_axial[sl_b], ys
+    )
+    safe_length = jnp.where(length > 0, length, 1.0)
+    grad_bar = (axial_force / safe_length)[:, None] * bars  # dU/d(bar)
+    elastic = 0.5 * jnp.sum(l0 * axial_force**2 / kappa, axis=0)
+    axial = jnp.sum(l0 * d_axial, axis=0)
+    if c.n_joints == 0:
+        return _nodal(grad_bar), rotation_p[c.joint : c.joint], strain1, 0.0, axial, elastic
+    incoming, outgoing = [bars[:-1]], [bars[1:]]
+    index = flat.chains.index(c)
+    if c.start == "symmetric":
+        incoming.insert(0, bars[:1] * _MIRROR)
+        outgoing.insert(0, bars[:1])
+    elif c.start == "clamped":
+        incoming.insert(0, flat.start_direction[index][None])
+        outgoing.insert(0, bars[:1])
+    if c.end == "clamped":
+        incoming.append(bars[-1:])
+        outgoing.append(flat.end_direction[index][None])
+    a, b = jnp.concatenate(incoming), jnp.concatenate(outgoing)  # (J_c, 2, B)
+    ax, ay, bx, by = a[:, 0], a[:, 1], b[:, 0], b[:, 1]
+    sl_j = slice(c.joint, c.joint + c.n_joints)
+    k, w = flat.joint_stiffness[sl_j], flat.joint_weight[sl_j]
+    angle = jnp.arctan2(ax * by - ay * bx, ax * bx + ay * by) - flat.reference_angle[sl_j]
+    moment, rotation1, d_rot = elastic_plastic(
+        angle, rotation_p[sl_j], k, flat.plastic_moment[sl_j], ys
+    )
+    g = w * moment
+    a2, b2 = ax * ax + ay * ay, bx * bx + by * by
+    grad_a = jnp.stack([g * ay / a2, -g * ax / a2], axis=1)  # dU/da
+    grad_b = jnp.stack([-g * by / b2, g * bx / b2], axis=1)  # dU/db
+    first = int(c.start != "free")
+    interior = slice(first, first + n - 2)
+    grad_bar = grad_bar + _pad(grad_a[interior], 0, 1) + _pad(grad_b[interior], 1, 0)
+    if c.start == "symmetric":
+        grad_bar = grad_bar + _pad(grad_a[:1] * _MIRROR + grad_b[:1], 0, n - 2)
+    elif c.start == "clamped":
+        grad_bar = grad_bar + _pad(grad_b[:1], 0, n - 2)
+    if c.end == "clamped":
+        grad_bar = grad_bar + _pad(grad_a[-1:], n - 2, 0)
+    elastic = elastic + 0.5 * jnp.sum(w * moment**2 / k, axis=0)
+    bending = jnp.sum(w * d_rot, axis=0)
+    return _nodal(grad_bar), rotation1, strain1, bending, axial, elastic
+
+
+def _nodal(grad_bar):
+    """F_i = G_i - G_{i-1} for G = dU/d(bar_i), bar_i = x_{i+1} - x_i."""
+    return _pad(grad_bar, 0, 1) - _pad(grad_bar, 1, 0)
+
+
+def respond(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> Response:
+    """Return-map every spring at `x` and assemble the nodal forces in closed form (Eq. 10)."""
+    forces, rot, strain, bend, axial = [], [], [], [], []
+    elastic = 0.0
+    for c in flat.chains:
+        f, r1, s1, b, a, e = _chain_response(flat, c, x, rotation_p, strain_p)
+        forces.append(f)
+        rot.append(r1)
+        strain.append(s1)
+        bend.append(jnp.broadcast_to(b, x.shape[-1:]))
+        axial.append(a)
+        elastic = elastic + e
+    force = jnp.concatenate(forces)
+    n_nodes = force.shape[0]
+    new_set, pair_force, dissipated = [], [], []
+    for p, gap, k, fy, ps in zip(
+        flat.pairs, flat.gap, flat.stiffness, flat.yield_force, permanent_set, strict=True
+    ):
+        xa = x[p.a : p.a + p.n_a]
+        if isinstance(p, PairLayout):
+            xb = x[p.b : p.b + p.n_b]
+            d = xa[:, None] - xb[None]  # (n_a, n_b, 2, B)
+            dist = safe_norm(d, axis=2)
+            delta = gap[None, None] - dist
+            cs = flat.contact_smoothing[None, None]
+        else:
+            delta = xa[:, 1] + gap[None]
+            cs = flat.contact_smoothing[None]
+        f, ps1, dc = contact_spring(delta, ps, k, fy, cs)
+        if isinstance(p, PairLayout):
+            safe = jnp.where(dist > 0, dist, 1.0)
+            along = (jnp.where(dist > 0, f / safe, 0.0))[:, :, None] * d
+            fa, fb = jnp.sum(along, axis=1), -jnp.sum(along, axis=0)
+            force = force + _pad(fa, p.a, n_nodes - p.a - p.n_a)
+            force = force + _pad(fb, p.b, n_nodes - p.b - p.n_b)
+        else:
+            fa = jnp.stack([jnp.zeros_like(f), -f], axis=1)
+            force = force + _pad(fa, p.a, n_nodes - p.a - p.n_a)
+        pairs = tuple(range(f.ndim - 1))
+        elastic = elastic + jnp.sum(contact_energy(delta, ps1, k, cs), axis=pairs)
+        new_set.append(ps1)
+        pair_force.append(f)
+        dissipated.append(jnp.sum(dc, axis=pairs))
+    batch = x.shape[-1:]
+    return Response(
+        force,
+        jnp.concatenate(rot),
+        jnp.concatenate(strain),
+        tuple(new_set),
+        tuple(pair_force),
+        jnp.stack(bend),
+        jnp.stack(axial),
+        jnp.stack(dissipated) if dissipated else jnp.zeros((1, *batch)),
+        jnp.broadcast_to(elastic, batch),
+    )
+
+
+def pair_forces(flat: FlatScene, x, permanent_set) -> tuple[Array, ...]:
+    """The contact pair forces at `x` with the permanent sets after the return mapping.
+
+    Not carried in the state (the step's carry stays small); recomputed for histories.
+    After a yield the set puts the pair exactly at its yield approach, so this equals the
+    step's force to rounding.
+    """
+    out = []
+    for p, gap, k, fy, ps in zip(
+        flat.pairs, flat.gap, flat.stiffness, flat.yield_force, permanent_set, strict=True
+    ):
+        xa = x[p.a : p.a + p.n_a]
+        if isinstance(p, PairLayout):
+            xb = x[p.b : p.b + p.n_b]
+            delta = gap[None, None] - safe_norm(xa[:, None] - xb[None], axis=2)
+            cs = flat.contact_smoothing[None, None]
+        else:
+            delta = xa[:, 1] + gap[None]
+            cs = flat.contact_smoothing[None]
+        f, _, _ = contact_spring(delta, ps, k, fy, cs)
+        out.append(f)
+    return tuple(out)
+
+
+def _accelerations(flat: FlatScene, force):
+    return force / flat.mass[:, None] * flat.free
+
+
+def _reaction(flat: FlatScene, force):
+    if flat.drive is None:
+        return jnp.zeros(force.shape[-1:])
+    node, axis = flat.drive
+    return -force[node, axis]
+
+
+def kinetic(flat: FlatScene, v) -> Float[Array, "C B"]:
+    """Kinetic energy per chain, sum of m v^2 / 2 over its nodes."""
+    e = 0.5 * jnp.sum(flat.mass[:, None] * v**2, axis=1)
+    return jnp.stack([jnp.sum(e[flat.chain_slice(c)], axis=0) for c in flat.chains])
+
+
+def initial_state(flat: FlatScene) -> BatchState:
+    """Reference positions, initial velocities, no plastic deformation; nothing stopped."""
+    x = flat.x0
+    nj, nm = flat.joint_stiffness.shape[0], flat.rest_length.shape[0]
+    batch = flat.mass.shape[-1:]
+    sets = tuple(jnp.zeros_like(k) for k in flat.stiffness)
+    r = respond(flat, x, jnp.zeros((nj, *batch)), jnp.zeros((nm, *batch)), sets)
+    z = jnp.zeros(batch)
+    return BatchState(
+        x, flat.v0, _accelerations(flat, r.forces), r.plastic_rotation, r.plastic_strain,
+        r.permanent_set, r.bending, r.axial, r.contact, r.elastic,
+        _reaction(flat, r.forces), z, z, z, z, z, z, z, z,
+    )  # fmt: skip
+
+
+def verlet_substep(flat: FlatScene, s: BatchState, t1, h, tolerance) -> BatchState:
+    """One velocity-Verlet step of length h (B,) with return mapping at the new positions."""
+    hb = h[None, None]  # (1, 1, B) against (N, 2, B)
+    v_half = s.v + 0.5 * hb * s.a
+    x = s.x + hb * v_half
+    r = respond(flat, x, s.plastic_rotation, s.plastic_strain, s.permanent_set)
+    a1 = _accelerations(flat, r.forces)
+    v1 = v_half + 0.5 * hb * a1
+    reaction = _reaction(flat, r.forces)
+    drive_work = s.drive_work
+    if flat.drive is not None:
+        drive_work = drive_work + 0.5 * (s.reaction + reaction) * flat.drive_velocity * h
+    bending, axial, contact = s.bending + r.bending, s.axial + r.axial, s.contact + r.contact
+    total = jnp.sum(bending, 0) + jnp.sum(axial, 0) + jnp.sum(contact, 0)
+    moved = total - s.dissipation_mark > tolerance
+    touching = jnp.zeros(h.shape, bool)
+    for f in r.contact_force:
+        touching = touching | jnp.any(f > 0, axis=tuple(range(f.ndim - 1)))
+    return eqx.tree_at(
+        lambda q: (
+            q.x, q.v, q.a, q.plastic_rotation, q.plastic_strain, q.permanent_set, q.bending,
+            q.axial, q.contact, q.elastic, q.reaction, q.drive_work,
+            q.last_dissipation, q.dissipation_mark, q.last_contact,
+        ),
+        s,
+        (
+            x, v1, a1, r.plastic_rotation, r.plastic_strain, r.permanent_set, bending, axial,
+            contact, r.elastic, reaction, drive_work,
+            jnp.where(moved, t1, s.last_dissipation), jnp.where(moved, total, s.dissipation_mark),
+            jnp.where(touching, t1, s.last_contact),
+        ),
+    )  # fmt: skip
+
+
+def energy_error(flat: FlatScene, s: BatchState, k0):
+    """(K + U + D - K0 - W_drive) / K0 per collision."""
+    dissipated = jnp.sum(s.bending, 0) + jnp.sum(s.axial, 0) + jnp.sum(s.contact, 0)
+    total = jnp.sum(kinetic(flat, s.v), 0) + s.elastic + dissipated
+    return (total - k0 - s.drive_work) / jnp.where(k0 > 0, k0, 1.0)
+
+
+def advance(flat: FlatScene, clock: Clock, s: BatchState, substeps: int, rule) -> BatchState:
+    """One diffrax step of every collision not yet stopped: `substeps` Verlet steps on its own
+    grid, then its stopping rule (`rule`: the Settings numbers). Stopped ones stay frozen."""
+    k = s.k + 1.0
+    t_next = jnp.where(k == 1.0, clock.dt0, clock.t_max * (k / clock.n))
+    t_next = jnp.where(k >= clock.n, clock.t_max, t_next)
+    t0 = s.t
+    h = (t_next - t0) / substeps
+
+    def body(i, y):
+        return verlet_substep(flat, y, t0 + (i + 1) * h, h, clock.tolerance)
+
+    y = body(0, s) if substeps == 1 else jax.lax.fori_loop(0, substeps, body, s)
+    err = energy_error(flat, y, clock.k0)
+    non_finite = ~jnp.isfinite(err)
+    broken = non_finite | (jnp.abs(err) > rule.energy_guard)
+    settled = jnp.zeros_like(broken)
+    if rule.stop_when_settled:
+        t = t_next
+        quiet = (t - y.last_dissipation > rule.settle_window) & (t >= rule.t_min)
+        apart = t - y.last_contact > rule.settle_window
+        spent = jnp.sum(kinetic(flat, y.v), 0) + y.elastic <= rule.settle_residual * clock.k0
+        settled = quiet & (apart | spent)
+    capped = k >= clock.n
+    out_of_steps = k >= clock.max_steps
+    stop = broken | settled | capped | out_of_steps
+    code = jnp.where(
+        non_finite,
+        RESULTS.non_finite,
+        jnp.where(
+            broken,
+            RESULTS.energy_balance_broken,
+            jnp.where(
+                settled | capped,
+                jnp.where(t_next < clock.t_max, RESULTS.settled, RESULTS.time_limit),
+                RESULTS.max_steps,
+            ),
+        ),
+    ).astype(float)
+    y = eqx.tree_at(
+        lambda q: (q.t, q.k, q.done, q.code),
+        y,
+        (t_next, k, jnp.where(stop, 1.0, 0.0), code),
+    )
+    # stopped before this step: keep the old state (the work done on it is discarded)
+    frozen = s.done > 0
+
+    def keep(old, new):
+        return jnp.where(jnp.reshape(frozen, (1,) * (old.ndim - 1) + frozen.shape), old, new)
+
+    return jax.tree_util.tree_map(keep, s, y)

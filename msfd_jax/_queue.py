@@ -1,0 +1,203 @@
+"""The sweep's engine: B slots on the batched core, finished slots refilled from a queue.
+
+No batch waits for its slowest collision: the slots advance together for a segment of
+`segment` diffrax steps (one compiled program, `_segment`), then every slot whose collision
+has stopped hands in its outputs and takes the next collision of the queue (`_refill`, also
+compiled: the new collisions' scenes, clocks and initial states are built on the device and
+merged into the freed slots). The host loop runs once per segment, never per time step. A
+collision's steps, stopping rule and results do not depend on which slot, batch or segment
+it ran in (tests/test_engine.py: a batch of N equals N single runs).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._core import solve
+from ._dynamics import State
+from ._engine import BatchState, initial_state, kinetic, make_clock, pair_forces
+from ._flat import FlatScene, batch_scenes
+from ._params import CollisionParams, Mesh
+from ._scene import _ring_on_beam
+from ._simulate import Settings, Solution
+
+DEFAULT_SLOTS = 64
+DEFAULT_SEGMENT = 64  # diffrax steps (x substeps Verlet steps) between refills
+
+
+def _scenes(params: CollisionParams, mesh: Mesh, smoothing) -> FlatScene:
+    scenes = jax.vmap(lambda p: _ring_on_beam(p, mesh, smoothing[0], smoothing[1]))(params)
+    return batch_scenes(scenes)
+
+
+def _dt(dt_crit, settings: Settings):
+    return dt_crit * settings.safety if settings.dt is None else jnp.full_like(dt_crit, settings.dt)
+
+
+@eqx.filter_jit
+def _start(params, dt_crit, mesh, smoothing, settings, max_steps):
+    flat = _scenes(params, mesh, smoothing)
+    clock = make_clock(flat, _dt(dt_crit, settings), settings, max_steps)
+    return flat, clock, initial_state(flat)
+
+
+@eqx.filter_jit
+def _segment(flat, clock, y, settings, segment: int):
+    sol = solve(flat, clock, y, settings, max_steps=segment, t1=float(segment), dt0=1.0)
+    return jax.tree_util.tree_map(lambda a: a[-1], sol.ys)
+
+
+@eqx.filter_jit
+def _refill(flat, clock, y, take, params, dt_crit, mesh, smoothing, settings, max_steps):
+    """Slots with `take` (B,) true get the new collisions `params` (B rows; others unused)."""
+    new = _start(params, dt_crit, mesh, smoothing, settings, max_steps)
+
+    def merge(old, fresh):
+        mask = jnp.reshape(take, (1,) * (old.ndim - 1) + take.shape)
+        return jnp.where(mask, fresh, old)
+
+    return jax.tree_util.tree_map(merge, (flat, clock, y), new)
+
+
+@eqx.filter_jit
+def _report(flat: FlatScene, clock, y: BatchState):
+    """Per slot: the numbers a sweep row needs and the chain-wise final state (batch first)."""
+    kin = kinetic(flat, y.v)
+    block = jnp.zeros_like(y.t)
+    for i, c in enumerate(flat.chains):
+        last = c.node + c.n_nodes - 1
+        block = block + 0.5 * flat.attached_mass[i] * jnp.sum(y.v[last] ** 2, axis=0)
+    forces = pair_forces(flat, y.x, y.permanent_set)
+    return jax.tree_util.tree_map(lambda a: jnp.moveaxis(a, -1, 0), (y, kin, block, forces))
+
+
+def _solution(flat, y, kin, block, forces, dt, dt_crit, k0, substeps) -> Solution:
+    """A batch-first `Solution` without histories (what `fractions` and `diagnose` read)."""
+
+    def nodes(a):
+        return tuple(a[:, c.node : c.node + c.n_nodes] for c in flat.chains)
+
+    final = State(
+        nodes(y.x), nodes(y.v), nodes(y.a),
+        tuple(y.plastic_rotation[:, c.joint : c.joint + c.n_joints] for c in flat.chains),
+        tuple(y.plastic_strain[:, c.bar : c.bar + c.n_nodes - 1] for c in flat.chains),
+        y.permanent_set, forces, y.bending, y.axial, y.contact, y.elastic,
+        y.reaction, y.drive_work, y.last_dissipation, y.dissipation_mark, y.last_contact,
+    )  # fmt: skip
+    return Solution(
+        result=np.round(y.code).astype(np.int64),
+        t_end=y.t,
+        steps=np.round(y.k * substeps).astype(np.int64),
+        dt=dt,
+        dt_critical=dt_crit,
+        k0=k0,
+        bending=y.bending,
+        axial=y.axial,
+        contact=y.contact,
+        kinetic=kin,
+        kinetic_block=block,
+        elastic=y.elastic,
+        drive_work=y.drive_work,
+        final=final,
+        ts=np.zeros((len(k0), 1)),  # every leaf batch-first (diagnose indexes them)
+        history={},
+        shape_ts=np.zeros((len(k0), 0)),
+        shapes=(),
+    )
+
+
+def run_queue(
+    params: dict[str, np.ndarray],
+    dt_critical: np.ndarray,
+    mesh: Mesh,
+    settings: Settings,
+    smoothing,
+    max_steps: int,
+    *,
+    slots: int = DEFAULT_SLOTS,
+    segment: int = DEFAULT_SEGMENT,
+    on_done: Callable[[np.ndarray, Solution, np.ndarray], None],
+) -> dict:
+    """Run every collision of `params` (columns of CollisionParams fields) through B slots.
+
+    `on_done(rows, solution, wall)` receives each group of collisions that stopped in the
+    same segment: their positions in `params`, a batch-first `Solution` of them (no
+    histories) and each one's share of the run time (compile time excluded). Returns the
+    slot count, the number of segments and the compile and run times.
+    """
+    n = len(dt_critical)
+    b = _slot_count(n, slots)
+    queue = list(range(n))
+    slot_row = np.full(b, -1)
+    names = list(params)
+
+    def batch_of(rows):
+        rows = np.asarray(rows)
+        padded = np.concatenate([rows, np.full(b - len(rows), rows[0])]) if len(rows) else None
+        p = CollisionParams(**{k: jnp.asarray(params[k][padded]) for k in names})
+        return p, jnp.asarray(dt_critical[padded]), padded
+
+    first = queue[:b]
+    del queue[:b]
+    p, d, padded = batch_of(first)
+    slot_row[: len(first)] = first
+    tick = time.perf_counter()
+    flat, clock, y = _start(p, d, mesh, smoothing, settings, max_steps)
+    # compile the segment ahead of time, so that its compilation is timed apart from the run
+    segment_fn = _segment.lower(flat, clock, y, settings, segment).compile()
+    compile_s = time.perf_counter() - tick
+    if len(first) < b:  # idle slots (fewer collisions than slots): stopped from the start
+        idle = jnp.asarray(slot_row < 0)
+        y = eqx.tree_at(lambda s: s.done, y, jnp.where(idle, 1.0, y.done))
+    busy = np.zeros(b)  # run time attributed to each slot's current collision
+    run_s, segments = 0.0, 0
+    while (slot_row >= 0).any():
+        tick = time.perf_counter()
+        y = segment_fn(flat, clock, y, settings, segment)
+        done = np.asarray(y.done) > 0
+        wall = time.perf_counter() - tick
+        run_s += wall
+        segments += 1
+        active = slot_row >= 0
+        busy[active] += wall / max(int(active.sum()), 1)
+        finished = done & active
+        if not finished.any():
+            continue
+        idx = np.flatnonzero(finished)
+        pick = jax.tree_util.tree_map(
+            lambda a, idx=idx: np.asarray(a)[idx], jax.device_get(_report(flat, clock, y))
+        )
+        dt = np.asarray(clock.dt0)[idx] / settings.substeps
+        k0 = np.asarray(clock.k0)[idx]
+        solution = _solution(flat, *pick, dt, dt_critical[slot_row[idx]], k0, settings.substeps)
+        on_done(slot_row[idx], solution, busy[idx].copy())
+        busy[idx] = 0.0
+        slot_row[idx] = -1
+        if queue:
+            fill = idx[: len(queue)]
+            rows = queue[: len(fill)]
+            del queue[: len(fill)]
+            take = np.zeros(b, bool)
+            take[fill] = True
+            new_rows = np.zeros(b, np.int64)
+            new_rows[fill] = rows
+            p, d, _ = batch_of(new_rows)
+            flat, clock, y = _refill(
+                flat, clock, y, jnp.asarray(take), p, d, mesh, smoothing, settings, max_steps
+            )
+            slot_row[fill] = rows
+    return dict(slots=b, segments=segments, compile_s=compile_s, run_s=run_s)
+
+
+def _slot_count(n: int, slots: int) -> int:
+    """Slots for n collisions: at most `slots`, and a power of two >= n when n is smaller
+    (a 3-collision sweep runs 4 slots, not 64; few distinct programs)."""
+    if n >= slots:
+        return slots
+    return min(slots, 1 << max(0, (n - 1).bit_length()))
