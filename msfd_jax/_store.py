@@ -83,9 +83,9 @@ class _Store:
         differ = sorted(k for k in {*old, *meta} if old.get(k) != meta.get(k))
         if differ:
             raise ValueError(
-                f"resume: the rows in {self.path} were computed with other {', '.join(differ)} "
-                f"({', '.join(f'{k}: {old.get(k)} now {meta.get(k)}' for k in differ)}); "
-                "resume with the same numerics or write to a new path"
+                f"resume: the rows in {self.path} were computed with another "
+                f"{', '.join(differ)} (see {self.meta_path}); resume with the same numerics "
+                "or write to a new path"
             )
 
     def write_meta(self, meta: dict) -> None:

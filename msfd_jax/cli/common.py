@@ -16,6 +16,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import msfd_jax as m
+from msfd_jax._progress import LineProgress  # noqa: F401 (for optimise: msfd tune)
 
 EXIT_OK, EXIT_USAGE, EXIT_SOLVE = 0, 2, 3
 
@@ -109,6 +110,13 @@ def add_numerics_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--contact-smoothing", type=float, default=0.0, help="ramp width / R")
     group.add_argument("--yield-smoothing", type=float, default=0.0, help="fraction of yield")
     group.add_argument("--no-cache", action="store_true", help="no persistent compile cache")
+
+
+def add_quiet_argument(parser: argparse.ArgumentParser, *aliases: str) -> None:
+    """``-q/--quiet``: no progress on stderr (every subcommand that shows progress has it)."""
+    parser.add_argument(
+        "-q", "--quiet", *aliases, action="store_true", help="no progress on stderr"
+    )
 
 
 def collision_from_args(args: argparse.Namespace) -> tuple[m.CollisionParams, m.Scales | None]:
