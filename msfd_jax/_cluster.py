@@ -67,7 +67,10 @@ def connect(spec: str, timeout: float = 30.0, worker_env: Mapping[str, str] | No
         n_workers=value,
         threads_per_worker=1,
         processes=True,
-        dashboard_address=None,
+        # no dashboard; the scheduler's HTTP endpoints on a free port (its default, 8787, is
+        # taken by the first cluster on the machine, and a second would warn)
+        dashboard_address=":0",
+        scheduler_kwargs={"dashboard": False},
         env=dict(WORKER_ENV if worker_env is None else worker_env),
     )
     client = distributed.Client(cluster, timeout=timeout)

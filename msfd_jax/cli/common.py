@@ -189,12 +189,17 @@ def enable_compilation_cache() -> Path:
     # public configuration.
     if "EQX_ON_ERROR" not in os.environ and hasattr(equinox._errors, "EQX_ON_ERROR"):
         equinox._errors.EQX_ON_ERROR = "nan"
-    default = Path.home() / ".cache" / "msfd-jax" / "jax"
-    path = Path(os.environ.get("MSFD_CACHE_DIR") or default).expanduser()
+    path = compilation_cache_dir()
     jax.config.update("jax_compilation_cache_dir", str(path))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
     return path
+
+
+def compilation_cache_dir() -> Path:
+    """``$MSFD_CACHE_DIR`` or ``~/.cache/msfd-jax/jax`` (what `enable_compilation_cache` uses)."""
+    default = Path.home() / ".cache" / "msfd-jax" / "jax"
+    return Path(os.environ.get("MSFD_CACHE_DIR") or default).expanduser()
 
 
 def checked(build: Callable, *args, **kwargs):

@@ -146,7 +146,12 @@ def handle(args: argparse.Namespace) -> int:
     mesh = common.checked(common.mesh_from_args, args)
     settings = common.checked(common.settings_from_args, args)
     output = _output(args)
-    cache = None if args.no_cache else common.enable_compilation_cache()
+    if args.no_cache:
+        cache = None
+    elif args.cluster is None:
+        cache = common.enable_compilation_cache()
+    else:  # the workers compile; this process only sends them tasks
+        cache = common.compilation_cache_dir()
     client = _client(args)
     try:
         table = sweep(
