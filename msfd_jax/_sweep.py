@@ -11,11 +11,9 @@ inputs and every output of ``msfd run --json``; a failed run is a row with its s
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import itertools
 import math
-import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -26,13 +24,17 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._cluster import solve_on_cluster
 from ._dynamics import critical_step
 from ._outputs import FRACTION_KEYS, diagnose, fractions
 from ._params import CollisionParams, Mesh, validate
+from ._progress import SweepProgress as _SweepProgress
 from ._queue import run_queue
-from ._results import FAILED, RESULTS
+from ._results import RESULTS
 from ._scene import ring_on_beam
 from ._simulate import Settings, simulate
+from ._store import match_rows, open_store
+from ._table import SweepTable
 
 INPUTS = tuple(f.name for f in dataclasses.fields(CollisionParams))
 KINETIC_KEYS = ("kinetic_ring", "kinetic_block", "kinetic_beam")
@@ -56,83 +58,6 @@ SWEEP_SETTINGS = Settings(history_points=2, shape_times=())
 DEFAULT_CHUNK = 64
 # compile and run time of the last in-process sweep (slots, segments, compile_s, run_s)
 LAST_TIMING: dict = {}
-
-
-@dataclasses.dataclass
-class SweepTable:
-    """One row per collision: every input (`INPUTS`) and every output (`OUTPUTS`) as columns.
-
-    `columns` maps a name to a numpy array (float64; ``steps`` and ``result`` int64; ``status``
-    and ``message`` str). `grid` holds the axes when the sweep was a full grid (rows in C
-    order: the last axis varies fastest), else None. `wall_time_s` is the whole sweep's.
-    """
-
-    columns: dict[str, np.ndarray]
-    grid: dict[str, np.ndarray] | None = None
-    wall_time_s: float = float("nan")
-
-    def __len__(self) -> int:
-        return len(next(iter(self.columns.values())))
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        return self.columns[name]
-
-    def keys(self):
-        return self.columns.keys()
-
-    @property
-    def failed(self) -> np.ndarray:
-        """Rows that went non-finite, broke their energy balance or ran out of steps."""
-        return np.isin(self.columns["result"], FAILED)
-
-    def rows(self) -> list[dict[str, Any]]:
-        """The table as a list of flat dicts of Python scalars (JSON-ready)."""
-        names = list(self.columns)
-        return [{k: self.columns[k][i].item() for k in names} for i in range(len(self))]
-
-    def to_csv(self, path: str | Path) -> Path:
-        """Write a CSV with a header row; floats are written exactly (``repr``)."""
-        path = Path(path)
-        with path.open("w", newline="") as stream:
-            writer = csv.writer(stream)
-            writer.writerow(self.columns)
-            for row in self.rows():
-                writer.writerow(repr(v) if isinstance(v, float) else v for v in row.values())
-        return path
-
-    @classmethod
-    def read_csv(cls, path: str | Path) -> SweepTable:
-        """Read a CSV written by `to_csv` (column types as `SweepTable` documents them)."""
-        with Path(path).open(newline="") as stream:
-            reader = csv.reader(stream)
-            header = next(reader)
-            data = list(zip(*reader, strict=True)) or [() for _ in header]
-        return cls({k: _column(k, v) for k, v in zip(header, data, strict=True)})
-
-    def to_xarray(self):
-        """An ``xarray.Dataset`` on the grid axes (needs the optional extra ``sweep``)."""
-        if self.grid is None:
-            raise ValueError("only a full grid (a dict of value lists) maps onto an xarray grid")
-        import xarray as xr
-
-        shape = tuple(len(v) for v in self.grid.values())
-        dims = tuple(self.grid)
-        data = {k: (dims, v.reshape(shape)) for k, v in self.columns.items() if k not in self.grid}
-        return xr.Dataset(data, coords={k: list(v) for k, v in self.grid.items()})
-
-    def to_netcdf(self, path: str | Path) -> Path:
-        """Write the grid as NetCDF via xarray (engine h5netcdf if installed)."""
-        path = Path(path)
-        self.to_xarray().to_netcdf(path)
-        return path
-
-
-def _column(name: str, values: Sequence[str]) -> np.ndarray:
-    if name in ("status", "message"):
-        return np.asarray(values, dtype=str)
-    if name in ("steps", "result"):
-        return np.asarray([int(v) for v in values], dtype=np.int64)
-    return np.asarray([float(v) for v in values], dtype=np.float64)
 
 
 def collisions(
@@ -199,12 +124,18 @@ def sweep(
     mesh: Mesh = Mesh(),
     settings: Settings = SWEEP_SETTINGS,
     chunk_size: int = DEFAULT_CHUNK,
-    progress: bool = True,
+    progress: bool = False,
     *,
     base: CollisionParams = CollisionParams(),
     contact_smoothing: float = 0.0,
     yield_smoothing: float = 0.0,
     shard: bool = False,
+    output: str | Path | None = None,
+    resume: bool = False,
+    client: Any = None,
+    task_size: int | None = None,
+    compile_cache: str | Path | None = None,
+    on_rows: Callable[[np.ndarray, dict[str, np.ndarray]], None] | None = None,
 ) -> SweepTable:
     """Run a grid or list of collisions, `chunk_size` at a time under one compiled vmap.
 
@@ -214,36 +145,114 @@ def sweep(
       `INPUTS` (the fields of `CollisionParams`), anything not given is taken from `base`.
     - `mesh`, `settings`: as for `run`. The default settings keep two history samples and no
       shapes (a sweep keeps only final values). `Settings.max_steps`, when None, is the bound
-      `simulate` would take for the smallest step of the sweep: every collision's computed
-      stability limit is evaluated first (a small vmapped program), so that one bound, and so
-      one compiled program, serves all chunks.
+      `simulate` would take for the smallest step of the sweep (of the task, on a cluster):
+      every collision's computed stability limit is evaluated first (a small vmapped
+      program), so that one bound, and so one compiled program, serves all chunks.
     - `chunk_size`: collisions per compiled call (memory is one chunk's). Under vmap a chunk
       runs until its slowest collision has stopped.
-    - `progress`: a progress bar on stderr.
+    - `progress`: a progress bar on stderr (tqdm; off by default, on in the CLI).
     - `shard`: split each chunk across all JAX devices with `jax.shard_map` (each device runs
       its own stopping loop); `chunk_size` must then be a multiple of the device count.
       On CPU, start with ``XLA_FLAGS=--xla_force_host_platform_device_count=<cores>`` (the
       CLI's ``--host-devices``) for one device per core. The stability limits are computed
       before, outside the sharded program (jaxlib's batched LAPACK eigensolver hung inside it).
+    - `output`: a ``.csv`` file or a ``.parquet`` directory that receives the rows as they
+      finish (see `msfd_jax._store`), and the whole table, in the sweep's order, at the end.
+      An existing `output` is refused unless `resume`.
+    - `resume`: read the finished rows in `output` (matched to the sweep's collisions by the
+      exact values of all their inputs) and compute only the others; refused if `output`
+      holds rows of other collisions or was computed with another mesh, settings or smoothing.
+    - `client`: a ``distributed.Client`` (`msfd_jax._cluster.connect` makes one): the
+      collisions run as Dask tasks of `task_size` (default `chunk_size`) collisions each, in
+      the cluster's workers; `compile_cache`: the directory of JAX's persistent compile cache
+      that the workers use (None: as their JAX is configured).
+    - `on_rows(rows, outputs)`: called as each group of collisions finishes (after it is
+      written), with their row positions in the table and their output columns.
 
-    Raises ValueError/TypeError, before anything is compiled, for a bad value.
+    Raises ValueError/TypeError, before anything is compiled or written, for a bad value.
     """
     columns, grid = collisions(grid_or_list, base)
+    n = len(columns["thickness_ratio"])
+    task_size = chunk_size if task_size is None else task_size
+    _check_sweep(columns, mesh, chunk_size, shard, contact_smoothing, yield_smoothing, task_size)
     start = time.perf_counter()
-    bar = _Progress(len(columns["thickness_ratio"]), enabled=progress)
-    out = solve_collisions(
-        columns,
-        mesh,
-        settings,
-        chunk_size=chunk_size,
-        contact_smoothing=contact_smoothing,
-        yield_smoothing=yield_smoothing,
-        shard=shard,
-        on_rows=lambda rows, outputs: bar.update(len(rows)),
-        on_stage=bar.note,
-    )
-    bar.close()
-    return SweepTable({**columns, **out}, grid, time.perf_counter() - start)
+    store = None if output is None else open_store(output)
+    kept = np.zeros(n, dtype=bool)
+    parts: list[tuple[np.ndarray, dict[str, np.ndarray]]] = []
+    if store is not None:
+        meta = _numerics(mesh, settings, contact_smoothing, yield_smoothing)
+        if store.exists() and not resume:
+            raise ValueError(f"output {str(output)!r} exists; resume it or remove it")
+        if store.exists():
+            store.check_meta(meta)
+            finished = store.finished()
+            found = match_rows(columns, finished, INPUTS, output)
+            kept = found >= 0
+            parts.append((np.flatnonzero(kept), {k: finished[k][found[kept]] for k in OUTPUTS}))
+        store.write_meta(meta)
+        old = {**{k: columns[k][kept] for k in INPUTS}, **parts[0][1]} if parts else None
+        store.start([*INPUTS, *OUTPUTS], old)
+    todo = np.flatnonzero(~kept)
+    bar = _SweepProgress(n, done=int(kept.sum()), enabled=progress)
+
+    def take(rows: np.ndarray, outputs: dict[str, np.ndarray]) -> None:
+        rows = todo[np.asarray(rows)]
+        parts.append((rows, outputs))
+        if store is not None:
+            store.append({**{k: columns[k][rows] for k in INPUTS}, **outputs})
+        bar.update(len(rows))
+        if on_rows is not None:
+            on_rows(rows, outputs)
+
+    kwargs = dict(mesh=mesh, settings=settings, chunk_size=chunk_size, shard=shard)
+    kwargs.update(contact_smoothing=contact_smoothing, yield_smoothing=yield_smoothing)
+    todo_columns = {k: columns[k][todo] for k in INPUTS}
+    try:
+        if len(todo) and client is None:
+            solve_collisions(todo_columns, **kwargs, on_rows=take, on_stage=bar.note)
+        elif len(todo):
+            bar.note(f"{math.ceil(len(todo) / task_size)} tasks of <= {task_size} on Dask")
+            rows = np.arange(len(todo))
+            solve_on_cluster(
+                client, solve_collisions, todo_columns, rows, task_size, kwargs, take, compile_cache
+            )
+    finally:
+        bar.close()
+        if store is not None:
+            store.close()
+    table = SweepTable({**columns, **_assemble(parts, n)}, grid, time.perf_counter() - start)
+    if store is not None:
+        store.finish(table.columns)
+        table.computed = ~kept
+    return table
+
+
+def _check_sweep(columns, mesh, chunk_size, shard, contact_smoothing, yield_smoothing, tasks):
+    """What `solve_collisions` refuses, refused before a file is written or a task is sent."""
+    validate(CollisionParams(**columns), mesh)
+    _smoothing_arrays(contact_smoothing, yield_smoothing)
+    _chunking(chunk_size, shard)
+    if isinstance(tasks, bool) or not isinstance(tasks, int) or tasks < 1:
+        raise ValueError(f"task_size must be an integer >= 1, got {tasks!r}")
+
+
+def _numerics(mesh: Mesh, settings: Settings, contact: float, yield_: float) -> dict:
+    """What a resumed sweep must share with the rows it keeps (`_store` checks it)."""
+    return {
+        "mesh": {f.name: repr(getattr(mesh, f.name)) for f in dataclasses.fields(mesh)},
+        "settings": {f.name: repr(getattr(settings, f.name)) for f in dataclasses.fields(settings)},
+        "contact_smoothing": repr(float(contact)),
+        "yield_smoothing": repr(float(yield_)),
+    }
+
+
+def _assemble(parts, n: int) -> dict[str, np.ndarray]:
+    """The output columns in the table's order, from groups of rows in any order."""
+    rows = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, int)
+    if len(rows) != n or len(np.unique(rows)) != n:
+        raise RuntimeError(f"a sweep of {n} collisions got {len(rows)} rows back")
+    order = np.argsort(rows, kind="stable")
+    return {k: np.concatenate([np.asarray(p[1][k]) for p in parts])[order] for k in OUTPUTS}
 
 
 def solve_collisions(
@@ -468,40 +477,3 @@ def _rows(outputs: dict, solution, mesh: Mesh, wall: float) -> dict[str, np.ndar
     # a chunk runs as one batch: each collision is given an equal share of its wall time
     out["wall_time_s"] = np.full(n, wall / n)
     return out
-
-
-class _Progress:
-    """A one-line progress bar on stderr (collisions done, rate, time left)."""
-
-    def __init__(self, total: int, enabled: bool = True, width: int = 30):
-        self.total, self.enabled, self.width = total, enabled, width
-        self.done, self.start = 0, time.perf_counter()
-        self.live = enabled and sys.stderr.isatty()
-
-    def note(self, stage: str) -> None:
-        if self.enabled:
-            self._write(f"msfd sweep: {self.total} collisions, {stage} (compiling on first use)")
-
-    def update(self, n: int) -> None:
-        self.done += n
-        if not self.enabled:
-            return
-        elapsed = time.perf_counter() - self.start
-        rate = self.done / elapsed if elapsed > 0 else float("inf")
-        left = (self.total - self.done) / rate if rate > 0 else float("inf")
-        filled = round(self.width * self.done / self.total)
-        bar = "#" * filled + "-" * (self.width - filled)
-        self._write(
-            f"msfd sweep [{bar}] {self.done}/{self.total} collisions, {rate:.3g}/s, "
-            f"{elapsed:.1f} s, {left:.0f} s left"
-        )
-
-    def close(self) -> None:
-        if self.live:
-            print(file=sys.stderr, flush=True)
-
-    def _write(self, text: str) -> None:
-        if self.live:
-            print(f"\r{text}\033[K", end="", file=sys.stderr, flush=True)
-        else:
-            print(text, file=sys.stderr, flush=True)

@@ -76,7 +76,7 @@ def add_tune_arguments(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_STAGES[0].iterations,
         help="iterations per annealing stage (default %(default)s)",
     )
-    tuning.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    cli.add_quiet_argument(tuning)
     robust = parser.add_argument_group(
         "robust tuning (the targets apply to the expected split over impact samples)"
     )
@@ -148,6 +148,8 @@ def tune_command(args: argparse.Namespace) -> int:
     )
     if not args.json or not args.quiet:
         cli.note("tuning; the first iteration compiles for a while...")
+    total = sum(s.iterations for s in stages)
+    progress = None if args.quiet else cli.LineProgress(total, "tune", unit=" iterations")
     try:
         problem = make_problem(params, mesh, settings, box, conditions)
         result = tune(
@@ -158,11 +160,14 @@ def tune_command(args: argparse.Namespace) -> int:
             stages=stages,
             mode=args.mode,
             tolerance=args.tolerance,
-            progress=None if args.quiet else cli.note,
+            progress=progress,
         )
     except m.SimulationError as error:
         cli.note(f"simulation failed: {error}")
         return cli.EXIT_SOLVE
+    finally:
+        if progress is not None:
+            progress.close()
     if args.json:
         print(json.dumps(result.to_json()))
     else:

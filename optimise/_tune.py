@@ -169,7 +169,7 @@ def tune(
     mode: str = "forward",
     tolerance: float = 0.01,
     sharp_correction: bool = True,
-    progress: Callable[[str], None] | None = _stderr,
+    progress: Callable[[str], None] | None = None,
     bracket: int = 12,
 ) -> TuneResult:
     """Find a design whose *sharp-model* partition meets `objective` within `tolerance` (K0).
@@ -182,7 +182,7 @@ def tune(
     - `stages`: the annealing schedule (`Stage`s); `mode`: ``"forward"`` or ``"reverse"``.
     - `tolerance`: how close (K0) the sharp partition must come to every term.
     - `sharp_correction`: take J and dJ/df from the sharp model (module docstring, step 2).
-    - `progress`: called with one line per iteration (default: printed on stderr); None: quiet.
+    - `progress`: called with one line per iteration (e.g. `print`); None (default): quiet.
     - `bracket`: sharp evaluations the bracketing safeguard may spend when the gradient steps
       end without meeting the target (`_bracket`; one design variable, one `TargetShare`); 0:
       none.

@@ -16,6 +16,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import msfd_jax as m
+from msfd_jax._progress import LineProgress  # noqa: F401 (for optimise: msfd tune)
 
 EXIT_OK, EXIT_USAGE, EXIT_SOLVE = 0, 2, 3
 
@@ -111,6 +112,13 @@ def add_numerics_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--no-cache", action="store_true", help="no persistent compile cache")
 
 
+def add_quiet_argument(parser: argparse.ArgumentParser, *aliases: str) -> None:
+    """``-q/--quiet``: no progress on stderr (every subcommand that shows progress has it)."""
+    parser.add_argument(
+        "-q", "--quiet", *aliases, action="store_true", help="no progress on stderr"
+    )
+
+
 def collision_from_args(args: argparse.Namespace) -> tuple[m.CollisionParams, m.Scales | None]:
     """The parameters (and SI scales when SI inputs were given); raises ValueError if bad."""
     given_si = {k: getattr(args, f"si_{k}") for k in SI if getattr(args, f"si_{k}") is not None}
@@ -181,12 +189,17 @@ def enable_compilation_cache() -> Path:
     # public configuration.
     if "EQX_ON_ERROR" not in os.environ and hasattr(equinox._errors, "EQX_ON_ERROR"):
         equinox._errors.EQX_ON_ERROR = "nan"
-    default = Path.home() / ".cache" / "msfd-jax" / "jax"
-    path = Path(os.environ.get("MSFD_CACHE_DIR") or default).expanduser()
+    path = compilation_cache_dir()
     jax.config.update("jax_compilation_cache_dir", str(path))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
     return path
+
+
+def compilation_cache_dir() -> Path:
+    """``$MSFD_CACHE_DIR`` or ``~/.cache/msfd-jax/jax`` (what `enable_compilation_cache` uses)."""
+    default = Path.home() / ".cache" / "msfd-jax" / "jax"
+    return Path(os.environ.get("MSFD_CACHE_DIR") or default).expanduser()
 
 
 def checked(build: Callable, *args, **kwargs):

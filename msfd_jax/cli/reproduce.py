@@ -37,7 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="where reproduce.md/.json go (default benchmarks/results/reproduce; "
         "quick: reproduce-quick)",
     )
-    parser.add_argument("--no-progress", action="store_true", help="no progress on stderr")
+    common.add_quiet_argument(parser, "--no-progress")
     parser.add_argument("--no-cache", action="store_true", help="no persistent compile cache")
 
 
@@ -57,7 +57,7 @@ def handle(args: argparse.Namespace) -> int:
         results = args.results or Path("benchmarks") / "results" / "reproduce"
     if not args.no_cache:
         common.enable_compilation_cache()
-    records = run(keys, args.quick, figures, results, progress=not args.no_progress)
+    records = run(keys, args.quick, figures, results, progress=not args.quiet)
     failed = [r.key for r in records if "error" in r.numbers]
     findings = [f for r in records for f in r.findings]
     agree = sum(f.agree is True for f in findings)

@@ -5,6 +5,11 @@ Each non-dimensional group takes a list ``5,10``, a range ``0.5:5:10`` (10 value
 takes ``held``, ``free`` or ``both``. ``--from-csv`` reads a list of collisions instead (a
 header of input names, one collision per row). Exit codes as ``msfd run``: 0, 2 bad input,
 3 if any collision of the sweep failed (the CSV is still written, with its status and message).
+
+Rows go to ``--csv PATH`` (or ``--parquet DIR.parquet``) as they finish, so a killed sweep
+keeps them; ``--resume`` computes only the collisions missing there. ``--cluster local:N``
+runs the collisions as Dask tasks in N worker processes, ``--cluster tcp://HOST:PORT`` on a
+running scheduler (docs/scaling.md). Progress on stderr unless ``-q/--quiet``.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _cluster
 from .._outputs import FRACTION_KEYS
 from .._params import CollisionParams
 from .._sweep import DEFAULT_CHUNK, INPUTS, SweepTable, sweep
@@ -77,9 +83,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="with --shard on CPU: run as N host devices, one per core (sets XLA_FLAGS)",
     )
-    batch.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
-    out = parser.add_argument_group("output")
+    batch.add_argument(
+        "--cluster",
+        metavar="SPEC",
+        help="run on Dask: local:N (N worker processes here) or tcp://HOST:PORT (a scheduler; "
+        "needs msfd-jax[cluster])",
+    )
+    batch.add_argument(
+        "--task-size",
+        type=int,
+        metavar="N",
+        help="with --cluster: collisions per Dask task (default: --chunk-size)",
+    )
+    common.add_quiet_argument(parser, "--no-progress")
+    out = parser.add_argument_group("output (rows written as they finish; --resume continues)")
     out.add_argument("--csv", type=Path, metavar="PATH", help="write the table as CSV")
+    out.add_argument(
+        "--parquet", type=Path, metavar="DIR", help="write the table as Parquet (DIR.parquet)"
+    )
+    out.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep the rows already in --csv/--parquet (matched by inputs), compute the rest",
+    )
     out.add_argument("--netcdf", type=Path, metavar="PATH", help="grid as NetCDF (needs xarray)")
     out.add_argument("--json", action="store_true", help="print the rows as JSON, nothing else")
 
@@ -119,32 +145,90 @@ def handle(args: argparse.Namespace) -> int:
     spec = common.checked(grid_from_args, args)
     mesh = common.checked(common.mesh_from_args, args)
     settings = common.checked(common.settings_from_args, args)
-    if not args.no_cache:
-        common.enable_compilation_cache()
+    output = _output(args)
+    if args.no_cache:
+        cache = None
+    elif args.cluster is None:
+        cache = common.enable_compilation_cache()
+    else:  # the workers compile; this process only sends them tasks
+        cache = common.compilation_cache_dir()
+    client = _client(args)
     try:
         table = sweep(
             spec,
             mesh,
             settings,
             chunk_size=args.chunk_size,
-            progress=not args.no_progress,
+            progress=not args.quiet,
             contact_smoothing=args.contact_smoothing,
             yield_smoothing=args.yield_smoothing,
             shard=args.shard,
+            output=output,
+            resume=args.resume,
+            client=client,
+            task_size=args.task_size,
+            compile_cache=cache,
         )
     except (ValueError, TypeError) as error:  # raised before anything is compiled
         raise common.UsageError(common.name_the_option(str(error))) from None
-    if args.csv is not None:
-        table.to_csv(args.csv)
+    finally:
+        if client is not None:
+            _cluster.close(client)
     if args.netcdf is not None:
         _write_netcdf(table, args.netcdf)
     if args.json:
         print(json.dumps(table.rows()))
     else:
         print(summary(table))
-        if args.csv is not None:
-            print(f"table written to {args.csv}")
+        if output is not None:
+            print(f"table written to {output}")
     return common.EXIT_SOLVE if table.failed.any() else common.EXIT_OK
+
+
+def _output(args: argparse.Namespace) -> Path | None:
+    """The one file the rows go to as they finish (--csv or --parquet), checked."""
+    if args.csv is not None and args.parquet is not None:
+        raise common.UsageError("give one of --csv and --parquet (the rows go to one store)")
+    path, flag = (args.csv, "--csv") if args.csv is not None else (args.parquet, "--parquet")
+    if path is None:
+        if args.resume:
+            raise common.UsageError("--resume needs --csv PATH or --parquet DIR to continue")
+        return None
+    suffix = ".csv" if flag == "--csv" else ".parquet"
+    if path.suffix != suffix:
+        raise common.UsageError(f"{flag} {path}: the name must end in {suffix}")
+    if path.exists() and not args.resume:
+        raise common.UsageError(f"{flag} {path} exists: add --resume to continue it, or remove it")
+    if path.exists() and path.is_dir() != (flag == "--parquet"):
+        kind = "directory" if flag == "--parquet" else "file"
+        raise common.UsageError(f"{flag} {path}: expected a {kind}")
+    return path
+
+
+def _client(args: argparse.Namespace):
+    """A Dask client for --cluster (None without it); bad syntax or no scheduler: exit 2."""
+    if args.task_size is not None and args.cluster is None:
+        raise common.UsageError("--task-size needs --cluster (it sizes the Dask tasks)")
+    if args.task_size is not None and args.task_size < 1:
+        raise common.UsageError(f"--task-size must be an integer >= 1, got {args.task_size}")
+    if args.cluster is None:
+        return None
+    if args.shard:
+        raise common.UsageError(
+            "--shard splits chunks over this process's devices; with --cluster each worker is "
+            "one single-threaded process: ask for more workers instead"
+        )
+    try:
+        _cluster.parse(args.cluster)
+        return _cluster.connect(args.cluster)
+    except ValueError as error:
+        raise common.UsageError(f"--cluster: {error}") from None
+    except ImportError as error:
+        raise common.UsageError(f"--cluster: {error}") from None
+    except OSError as error:  # TimeoutError included: no scheduler at that address
+        raise common.UsageError(
+            f"--cluster {args.cluster}: no scheduler reached ({error})"
+        ) from None
 
 
 def _write_netcdf(table: SweepTable, path: Path) -> None:
@@ -175,6 +259,9 @@ def summary(table: SweepTable, max_rows: int = 40) -> str:
         f"{n} collisions in {table.wall_time_s:.1f} s ({rate:.3g} per second, including "
         f"compilation); {failed} failed" + (" (see the message column)" if failed else ""),
     ]
+    if table.computed is not None and not table.computed.all():
+        kept = int((~table.computed).sum())
+        lines.append(f"{kept} of them read back from the output (--resume), {n - kept} computed")
     return "\n".join(lines)
 
 

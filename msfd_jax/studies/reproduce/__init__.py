@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import importlib
 import json
-import sys
 import time
 import traceback
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from ..._progress import LineProgress
 from ._common import Finding, Reproduction
 
 FIGURES: dict[str, tuple[str, str, str]] = {
@@ -64,13 +64,14 @@ def run(
     quick: bool,
     figures_dir: Path,
     results_dir: Path,
-    progress: bool = True,
+    progress: bool = False,
 ) -> list[Reproduction]:
     """Run the figures `keys` (in the registry's order), write the report, return the records.
 
     ``figures_dir`` receives the PNGs; ``results_dir`` ``reproduce.md`` (each figure's
     section and a summary of every finding) and ``reproduce.json``. A figure that raises is
-    recorded as an error row and the others still run.
+    recorded as an error row and the others still run. `progress`: a bar of the figures
+    on stderr (tqdm) with a line per figure (off by default; ``msfd reproduce`` shows it).
     """
     unknown = [k for k in keys if k not in FIGURES]
     if unknown:
@@ -81,24 +82,27 @@ def run(
     results_dir.mkdir(parents=True, exist_ok=True)
     records: list[Reproduction] = []
     begin = time.perf_counter()
+    bar = LineProgress(len(keys), "reproduce", unit=" figures") if progress else None
+    say = bar.note if bar is not None else (lambda text: None)
     for i, key in enumerate(keys, 1):
-        _say(progress, f"[{i}/{len(keys)}] {key}: {FIGURES[key][2]} ...")
+        say(f"[{i}/{len(keys)}] {key}: {FIGURES[key][2]} ...")
         start = time.perf_counter()
         try:
             record = load(key)(quick, figures_dir)
         except Exception as error:  # one figure failing must not lose the others
             record = error_row(key, error, time.perf_counter() - start)
             missing = isinstance(error, ImportError | AttributeError)
-            _say(progress, record.table if missing else traceback.format_exc(limit=3))
+            say(record.table if missing else traceback.format_exc(limit=3))
         record.wall_time_s = time.perf_counter() - start
         records.append(record)
         agree = sum(f.agree is True for f in record.findings)
-        _say(
-            progress,
+        (bar or say)(
             f"[{i}/{len(keys)}] {key}: done in {record.wall_time_s:.0f} s "
             f"({agree}/{len(record.findings)} findings agree; "
             f"{time.perf_counter() - begin:.0f} s elapsed)",
         )
+    if bar is not None:
+        bar.close()
     write(records, quick, figures_dir, results_dir)
     return records
 
@@ -172,11 +176,6 @@ def _default(value):
     if isinstance(value, np.generic):
         return value.item()
     return str(value)
-
-
-def _say(enabled: bool, text: str) -> None:
-    if enabled:
-        print(f"msfd reproduce: {text}", file=sys.stderr, flush=True)
 
 
 __all__ = ["FIGURES", "Finding", "Reproduction", "load", "run", "summary", "write"]
