@@ -85,7 +85,13 @@ __all__ = [
 
 def __getattr__(name):
     # plotting is imported lazily: `import msfd_jax` does not load matplotlib
-    if name in ("plot_collision", "plot_partition"):
+    if name in (
+        "plot_collision",
+        "plot_partition",
+        "plot_energies",
+        "plot_shapes",
+        "plot_contact_force",
+    ):
         from . import _plot
 
         return getattr(_plot, name)

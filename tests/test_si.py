@@ -110,3 +110,34 @@ def test_cli_si_json_and_table():
         assert main(["run", *SMALL, "--si"]) == 0
     text = out.getvalue()
     assert "kJ" in text and "kN" in text and "mm" in text and "m/s^2" in text
+
+
+def test_si_figures_and_axes_arguments(collision, tmp_path):
+    from matplotlib.figure import Figure
+
+    from msfd_jax._plot import plot_collision, plot_energies, plot_partition, plot_shapes
+    from msfd_jax._sweep import SweepTable
+
+    fig = plot_collision(collision, tmp_path / "si.png")
+    labels = {ax.get_xlabel() for ax in fig.axes} | {ax.get_ylabel() for ax in fig.axes}
+    assert "t [ms]" in labels and "energy [kJ] (whole structure)" in labels and "y [m]" in labels
+    assert (tmp_path / "si.png").stat().st_size > 0
+    plain = plot_collision(collision, si=False)
+    assert r"$E / K_0$" in {ax.get_ylabel() for ax in plain.axes}
+    # ax= draws on the caller's axes; a sweep table gives one bar per row
+    host = Figure()
+    left, right = host.subplots(1, 2)
+    assert plot_energies(collision, left) is host and plot_shapes(collision, right) is host
+    table = SweepTable(
+        {
+            **{k: np.array([v, v]) for k, v in collision.fractions.items()},
+            "thickness_ratio": np.array([1.5, 2.5]),
+            "velocity": np.array([0.8, 0.8]),
+        }
+    )
+    bars = Figure().subplots()
+    plot_partition(table, ax=bars)
+    assert [t.get_text() for t in bars.get_yticklabels()] == [
+        "thickness_ratio = 2.5",
+        "thickness_ratio = 1.5",
+    ]
