@@ -138,6 +138,6 @@ def test_si_figures_and_axes_arguments(collision, tmp_path):
     bars = Figure().subplots()
     plot_partition(table, ax=bars)
     assert [t.get_text() for t in bars.get_yticklabels()] == [
-        "thickness_ratio = 2.5",
         "thickness_ratio = 1.5",
+        "thickness_ratio = 2.5",
     ]
