@@ -206,5 +206,9 @@ def report(result) -> str:
             beam = f["beam_bending"] + f["beam_axial"]
             ring = f["ring_bending"] + f["ring_axial"]
             lines.append(f"  {v0!s:>6} {g!s:>6}  {beam:8.4f} {ring:8.4f}")
+    lines.append(
+        "final collision: "
+        + ("settled" if result.settled else "NOT settled (" + ", ".join(result.final_status) + ")")
+    )
     lines.append(f"iterations {result.iterations}, wall time {result.wall_time_s:.1f} s")
     return "\n".join(lines)
