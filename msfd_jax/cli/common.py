@@ -95,7 +95,7 @@ def add_case_argument(parser: argparse.ArgumentParser) -> None:
         type=Path,
         metavar="CASE.toml",
         help="a case file: one [section] per option group, keys named as the long options "
-        "with _ for - (docs/cases.md); options given on the command line override it "
+        "with _ for - (docs/si.md); options given on the command line override it "
         "(default: none)",
     )
 
