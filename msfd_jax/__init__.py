@@ -1,8 +1,15 @@
 """msfd-jax: a differentiable JAX solver for ring-on-beam collisions (Ruan & Yu 2003, MS-FD)."""
 
+import importlib.metadata as _metadata
+
 import jax
 
 jax.config.update("jax_enable_x64", True)
+
+try:
+    __version__ = _metadata.version("msfd-jax")
+except _metadata.PackageNotFoundError:  # a source tree on sys.path, not installed
+    __version__ = "0+unknown"
 
 from ._chain import Chain, Section, rectangular_section  # noqa: E402
 from ._contact import AbstractContact, NodeToNodeContact, NodeToPlaneContact  # noqa: E402
@@ -15,6 +22,7 @@ from ._outputs import (  # noqa: E402
     diagnose,
     fractions,
     run,
+    run_si,
 )
 from ._params import PAPER_SI, CollisionParams, Mesh, Scales, from_si, validate  # noqa: E402
 from ._results import RESULT_NAMES, RESULTS  # noqa: E402
@@ -39,6 +47,7 @@ __all__ = [
     "diagnose",
     "fractions",
     "run",
+    "run_si",
     "AbstractContact",
     "Chain",
     "CollisionParams",
@@ -76,7 +85,13 @@ __all__ = [
 
 def __getattr__(name):
     # plotting is imported lazily: `import msfd_jax` does not load matplotlib
-    if name in ("plot_collision", "plot_partition"):
+    if name in (
+        "plot_collision",
+        "plot_partition",
+        "plot_energies",
+        "plot_shapes",
+        "plot_contact_force",
+    ):
         from . import _plot
 
         return getattr(_plot, name)

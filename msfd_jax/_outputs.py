@@ -10,9 +10,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._params import CollisionParams, Mesh
+from ._params import CollisionParams, Mesh, Scales
+from ._provenance import mesh_json, settings_json, versions
 from ._results import FAILED, RESULTS
 from ._scene import Scene, ring_on_beam
+from ._si import design_quantities, motion_settings
 from ._simulate import (
     Settings,
     Solution,
@@ -31,7 +33,15 @@ FRACTION_KEYS = (
 
 
 class SimulationError(RuntimeError):
-    """A run that went non-finite, broke its energy balance, or ran out of steps."""
+    """A run that went non-finite, broke its energy balance, or ran out of steps.
+
+    `collision` is the failed `Collision` when `run` raised it (None otherwise), so that a
+    caller can still report the inputs and where the run stopped.
+    """
+
+    def __init__(self, message: str, collision: Collision | None = None):
+        super().__init__(message)
+        self.collision = collision
 
 
 def fractions(solution: Solution, scene: Scene) -> dict[str, Any]:
@@ -132,13 +142,24 @@ def _degenerate(sol: Solution, scene: Scene) -> str | None:
 
 @dataclasses.dataclass
 class Collision:
-    """One finished ring-on-beam collision, with its partition and provenance."""
+    """One finished ring-on-beam collision, with its partition and provenance.
+
+    `settings` are the settings asked for (a run in SI also saves node positions at every
+    history sample, `msfd_jax._si.motion_settings`; `settings` stays what was asked, so a rerun
+    from `to_json` is the same run). `scales` are the SI unit scales when the collision was
+    given in SI (then `si` holds the design quantities in SI, whole structure).
+    """
 
     params: CollisionParams
     mesh: Mesh
     scene: Scene
     solution: Solution
     wall_time_s: float
+    settings: Settings | None = None
+    contact_smoothing: float = 0.0
+    yield_smoothing: float = 0.0
+    scales: Scales | None = None
+    si_inputs: dict[str, float] | None = None
 
     @property
     def fractions(self) -> dict[str, float]:
@@ -156,9 +177,15 @@ class Collision:
     def message(self) -> str:
         return diagnose(self.solution, self.scene)
 
+    @property
+    def si(self) -> dict[str, Any] | None:
+        """SI design quantities of the whole structure (`msfd_jax._si`), or None without SI."""
+        return None if self.scales is None else design_quantities(self, self.scales)
+
     def to_json(self) -> dict[str, Any]:
+        """The record of ``msfd run --json``: results, inputs, mesh, settings, versions."""
         f = self.fractions
-        return {
+        record = {
             "fractions": {k: f[k] for k in FRACTION_KEYS},
             "kinetic_split": {k: f[k] for k in ("kinetic_ring", "kinetic_block", "kinetic_beam")},
             "energy_balance_error": self.energy_balance_error,
@@ -174,6 +201,20 @@ class Collision:
                 for f in dataclasses.fields(self.params)
             },
         }
+        record["mesh"] = mesh_json(self.mesh)
+        if self.settings is not None:
+            record["settings"] = {
+                **settings_json(self.settings),
+                "contact_smoothing": float(self.contact_smoothing),
+                "yield_smoothing": float(self.yield_smoothing),
+            }
+        record["versions"] = versions()
+        if self.scales is not None:
+            record["si"] = self.si
+            record["si_scales"] = vars(self.scales)  # the former key, kept for old readers
+            if self.si_inputs is not None:
+                record["si_inputs"] = dict(self.si_inputs)
+        return record
 
 
 def run(
@@ -184,11 +225,15 @@ def run(
     contact_smoothing: float = 0.0,
     yield_smoothing: float = 0.0,
     check: bool = True,
+    scales: Scales | None = None,
+    si_inputs: dict[str, float] | None = None,
 ) -> Collision:
     """Run one ring-on-beam collision with every input checked; raise if it failed.
 
-    Raises `SimulationError` (with `diagnose`'s message) when the run went non-finite, broke
-    its energy balance or hit the step bound, unless ``check=False``.
+    Raises `SimulationError` (with `diagnose`'s message and the failed `Collision`) when the
+    run went non-finite, broke its energy balance or hit the step bound, unless
+    ``check=False``. With `scales` (from `from_si`, or use `run_si`) the result also has the
+    SI design quantities (`Collision.si`); `si_inputs` are recorded in its JSON.
     """
     for name, value, kind in (
         ("params", params, CollisionParams),
@@ -209,10 +254,61 @@ def run(
     scene = ring_on_beam(
         params, mesh, contact_smoothing=contact_smoothing, yield_smoothing=yield_smoothing
     )
+    if scales is not None and not isinstance(scales, Scales):
+        raise TypeError(f"scales must be a msfd_jax.Scales (from from_si), got {scales!r}")
+    solved = settings if scales is None else motion_settings(settings)
     start = time.perf_counter()
-    solution = jax.block_until_ready(simulate(scene, settings))
+    solution = jax.block_until_ready(simulate(scene, solved))
     wall = time.perf_counter() - start
-    collision = Collision(params, mesh, scene, solution, wall)
+    collision = Collision(
+        params,
+        mesh,
+        scene,
+        solution,
+        wall,
+        settings=settings,
+        contact_smoothing=float(contact_smoothing),
+        yield_smoothing=float(yield_smoothing),
+        scales=scales,
+        si_inputs=si_inputs,
+    )
     if check and int(solution.result) in FAILED:
-        raise SimulationError(collision.message)
+        raise SimulationError(collision.message, collision)
     return collision
+
+
+def run_si(
+    mesh: Mesh = Mesh(),
+    settings: Settings = Settings(),
+    *,
+    contact_smoothing: float = 0.0,
+    yield_smoothing: float = 0.0,
+    check: bool = True,
+    **si: Any,
+) -> Collision:
+    """`run` from SI inputs (`from_si`'s keywords; missing ones are `PAPER_SI`'s).
+
+    The result has `Collision.si`, the design quantities of the whole structure in SI.
+    """
+    from ._params import PAPER_SI, from_si
+
+    unknown = sorted(set(si) - set(PAPER_SI) - {"beam_width", "axial_constraint"})
+    if unknown:
+        allowed = ", ".join(sorted({*PAPER_SI, "beam_width", "axial_constraint"}))
+        raise TypeError(f"unknown SI inputs {unknown}; allowed: {allowed}")
+    inputs = {**PAPER_SI, **si}
+    params, scales = from_si(**inputs)
+    return run(
+        params,
+        mesh,
+        settings,
+        contact_smoothing=contact_smoothing,
+        yield_smoothing=yield_smoothing,
+        check=check,
+        scales=scales,
+        si_inputs={
+            k: (bool(v) if k == "axial_constraint" else float(v))
+            for k, v in inputs.items()
+            if v is not None
+        },
+    )

@@ -40,7 +40,26 @@ LABELS = {
     "kinetic": "kinetic",
     "elastic": "elastic",
 }
-_CHAIN_COLOURS = {"ring": "tab:blue", "beam": "tab:red"}
+# Ring and beam keep one colour in every figure: the hue of their bending energy above.
+_CHAIN_COLOURS = {"ring": COLOURS["ring_bending"], "beam": COLOURS["beam_bending"]}
+
+
+def _units(collision: Collision, si: bool | None):
+    """(time, energy, length, force) factors and labels: non-dimensional or SI, whole."""
+    scales = collision.scales if si or si is None else None
+    if si and scales is None:
+        raise ValueError("si=True needs a collision given in SI (msfd_jax.run_si)")
+    if scales is None:
+        return dict(t=1.0, e=None, x=1.0, f=1.0, tl=r"$\tau$", xl="R", fl=r"$P R / M_{pr}$ (half)")
+    return dict(
+        t=1e3 * scales.time,
+        e=2e-3 * scales.moment * float(collision.solution.k0),
+        x=scales.length,
+        f=2e-3 * scales.force,
+        tl="t [ms]",
+        xl="m",
+        fl="contact force [kN] (whole beam)",
+    )
 
 
 class _Figure(Figure):
@@ -83,36 +102,59 @@ def energy_histories(collision: Collision) -> tuple[np.ndarray, dict[str, np.nda
     return np.asarray(sol.ts)[keep], out
 
 
-def _plot_energies(ax, collision: Collision) -> None:
+def plot_energies(collision: Collision, ax=None, *, si: bool | None = None):
+    """Energy histories on `ax` (a new figure if None): E/K0 over tau, or kJ over ms in SI."""
+    fig, ax = _axes(ax, (6, 4))
+    u = _units(collision, si)
     ts, energies = energy_histories(collision)
+    scale = 1.0 if u["e"] is None else u["e"]
     for key in FRACTION_KEYS:
         if np.any(energies[key] != 0):
-            ax.plot(ts, energies[key], color=COLOURS[key], label=LABELS[key])
-    ax.set(xlabel=r"$\tau$", ylabel=r"$E / K_0$", title="(a) energy partition")
-    ax.set_xlim(0.0, ts[-1])
+            ax.plot(u["t"] * ts, scale * energies[key], color=COLOURS[key], label=LABELS[key])
+    ylabel = r"$E / K_0$" if u["e"] is None else "energy [kJ] (whole structure)"
+    ax.set(xlabel=u["tl"], ylabel=ylabel, title="(a) energy partition")
+    ax.set_xlim(0.0, u["t"] * ts[-1])
     ax.set_ylim(bottom=0.0)
     ax.grid(alpha=0.3)
     ax.legend(fontsize="small", ncols=2)
+    return fig
 
 
-def _plot_shapes(ax, collision: Collision) -> None:
-    """Half-model shapes mirrored about x = 0, so the whole ring and beam are drawn."""
+def _axes(ax, size):
+    if ax is not None:
+        return ax.figure, ax
+    fig = _Figure(figsize=size, layout="constrained")
+    return fig, fig.subplots()
+
+
+def plot_shapes(collision: Collision, ax=None, *, si: bool | None = None):
+    """Half-model shapes mirrored about x = 0, so the whole ring and beam are drawn.
+
+    Intermediate shapes are those at the settings' `shape_times` (a run in SI saves more).
+    """
+    fig, ax = _axes(ax, (8, 3))
+    u = _units(collision, si)
     sol, scene = collision.solution, collision.scene
     shape_ts = np.asarray(sol.shape_ts)
     t_end = float(sol.t_end)
+    wanted = None if collision.settings is None else collision.settings.shape_times
     for chain, shapes, final in zip(scene.chains, sol.shapes, sol.final.x, strict=True):
         colour = _CHAIN_COLOURS.get(chain.name, "k")
-        shapes = np.asarray(shapes)
+        shapes = u["x"] * np.asarray(shapes)
         for t, xy in zip(shape_ts[1:], shapes[1:], strict=True):
-            if t < t_end and np.all(np.isfinite(xy)):
+            asked = wanted is None or any(abs(t - w) < 1e-12 for w in wanted)
+            if asked and t < t_end and np.all(np.isfinite(xy)):
                 _mirrored(ax, xy, color=colour, alpha=0.3, lw=0.9)
         _mirrored(ax, shapes[0], color="0.5", ls="--", lw=1.0)
-        _mirrored(ax, np.asarray(final), color=colour, lw=1.8, label=chain.name)
-    ax.plot([], [], color="0.5", ls="--", label=r"$\tau = 0$")
+        _mirrored(ax, u["x"] * np.asarray(final), color=colour, lw=1.8, label=chain.name)
+    ax.plot([], [], color="0.5", ls="--", label="initial")
     ax.plot([], [], color="0.4", alpha=0.3, label="intermediate")
     ax.set_aspect("equal")
-    ax.set(xlabel="x / R", ylabel="y / R", title=rf"(c) shapes (final at $\tau$ = {t_end:.3g})")
+    end = f"t = {u['t'] * t_end:.3g} ms" if u["e"] is not None else rf"$\tau$ = {t_end:.3g}"
+    unit = "/ R" if u["e"] is None else "[m]"
+    ax.set(xlabel=f"x {unit}", ylabel=f"y {unit}", title=f"(c) shapes (final at {end})")
     ax.legend(fontsize="small", loc="lower right")
+    return fig
 
 
 def _mirrored(ax, xy: np.ndarray, **kwargs) -> None:
@@ -120,16 +162,20 @@ def _mirrored(ax, xy: np.ndarray, **kwargs) -> None:
     ax.plot(full[:, 0], full[:, 1], **kwargs)
 
 
-def _plot_contact_force(ax, collision: Collision) -> None:
+def plot_contact_force(collision: Collision, ax=None, *, si: bool | None = None):
+    """Total contact force over time: P R / M_pr of the half model, or kN on the whole beam."""
+    fig, ax = _axes(ax, (6, 4))
+    u = _units(collision, si)
     sol = collision.solution
     keep = _finished(collision)
-    force = np.asarray(sol.history["contact_force"])[keep].sum(-1)
-    ts = np.asarray(sol.ts)[keep]
+    force = u["f"] * np.asarray(sol.history["contact_force"])[keep].sum(-1)
+    ts = u["t"] * np.asarray(sol.ts)[keep]
     ax.plot(ts, force, color="k", lw=1.0)
     ax.set_xlim(0.0, ts[-1])
     ax.set_ylim(bottom=0.0)
-    ax.set(xlabel=r"$\tau$", ylabel=r"$P R / M_{pr}$ (half model)", title="(b) contact force")
+    ax.set(xlabel=u["tl"], ylabel=u["fl"], title="(b) contact force")
     ax.grid(alpha=0.3)
+    return fig
 
 
 def _plot_contact_pairs(fig: Figure, ax, collision: Collision) -> None:
@@ -154,7 +200,9 @@ def _plot_contact_pairs(fig: Figure, ax, collision: Collision) -> None:
     ax.grid(alpha=0.3)
 
 
-def plot_collision(collision: Collision, path: str | Path | None = None) -> Figure:
+def plot_collision(
+    collision: Collision, path: str | Path | None = None, *, si: bool | None = None
+) -> Figure:
     """Four panels of one collision, after the paper's Fig. 13.
 
     (a) energy fractions E/K0 over tau, (b) total contact force, (c) initial, intermediate
@@ -163,15 +211,17 @@ def plot_collision(collision: Collision, path: str | Path | None = None) -> Figu
     **Arguments:**
     - `collision`: the result of `msfd_jax.run`.
     - `path`: if given, the figure is also saved there (format from the suffix).
+    - `si`: SI axes (ms, kJ and kN of the whole structure, m); default: when the collision
+      was given in SI (`Collision.scales`).
     """
     fig = _Figure(figsize=(12, 8.5), layout="constrained")
     top, bottom = fig.subfigures(2, 1, height_ratios=(1.0, 0.75))
     ax_energy, ax_force = top.subplots(1, 2)
     # The shapes are drawn to scale (about 6R by 1.5R), so they get the wider bottom panel.
     ax_shapes, ax_pairs = bottom.subplots(1, 2, width_ratios=(2.2, 1.0))
-    _plot_energies(ax_energy, collision)
-    _plot_contact_force(ax_force, collision)
-    _plot_shapes(ax_shapes, collision)
+    plot_energies(collision, ax_energy, si=si)
+    plot_contact_force(collision, ax_force, si=si)
+    plot_shapes(collision, ax_shapes, si=si)
     _plot_contact_pairs(bottom, ax_pairs, collision)
     p = collision.params
     fig.suptitle(
@@ -190,7 +240,7 @@ def _partitions(partition: Partition | Sequence[Partition]) -> list[dict[str, fl
     """Normalise to a list of {key: fraction}; a mapping of 1-D arrays gives one per entry."""
     if isinstance(partition, Collision):
         return [partition.fractions]
-    if isinstance(partition, Mapping):
+    if isinstance(partition, Mapping) or hasattr(partition, "columns"):  # a SweepTable too
         arrays = {k: np.atleast_1d(np.asarray(partition[k], float)) for k in FRACTION_KEYS}
         n = len(arrays[FRACTION_KEYS[0]])
         return [{k: float(arrays[k][i]) for k in FRACTION_KEYS} for i in range(n)]
@@ -203,6 +253,7 @@ def plot_partition(
     *,
     labels: Sequence[str] | None = None,
     title: str = "final energy partition",
+    ax=None,
 ) -> Figure:
     """Stacked bars of the final energy partition (fractions of K0), one bar per run.
 
@@ -211,14 +262,17 @@ def plot_partition(
       `msfd_jax.fractions` of a vmapped solution, whose 1-D arrays give one bar per entry),
       or a sequence of these.
     - `path`: if given, the figure is also saved there.
+      A `SweepTable` gives one bar per row, labelled by the inputs that vary.
     - `labels`: one label per bar (e.g. the swept parameter's values).
+    - `ax`: draw on these axes (a new figure if None).
     """
     rows = _partitions(partition)
+    if labels is None and hasattr(partition, "columns"):
+        labels = _table_labels(partition)
     labels = [str(i) for i in range(len(rows))] if labels is None else list(labels)
     if len(labels) != len(rows):
         raise ValueError(f"labels has {len(labels)} entries for {len(rows)} partitions")
-    fig = _Figure(figsize=(7.5, 1.6 + 0.55 * len(rows)), layout="constrained")
-    ax = fig.subplots()
+    fig, ax = _axes(ax, (7.5, 1.6 + 0.55 * len(rows)))
     y = np.arange(len(rows))[::-1]
     left = np.zeros(len(rows))
     for key in FRACTION_KEYS:
@@ -233,5 +287,18 @@ def plot_partition(
     ax.set_yticks(y, labels)
     ax.set_xlim(0.0, max(1.0, math.ceil(left.max() * 20) / 20))
     ax.set(xlabel=r"fraction of $K_0$", title=title)
-    fig.legend(loc="outside lower center", ncols=4, fontsize="small")
+    if ax.figure.get_layout_engine() is not None and ax is fig.axes[0] and len(fig.axes) == 1:
+        fig.legend(loc="outside lower center", ncols=4, fontsize="small")
+    else:
+        ax.legend(fontsize="small", ncols=2)
     return _save(fig, path)
+
+
+def _table_labels(table) -> list[str]:
+    from ._sweep import INPUTS
+
+    varying = [k for k in INPUTS if k in table.keys() and np.unique(table[k]).size > 1]
+    return [
+        ", ".join(f"{k} = {float(table[k][i]):.3g}" for k in varying) or str(i)
+        for i in range(len(table))
+    ]

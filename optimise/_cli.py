@@ -54,9 +54,20 @@ def add_tune_arguments(parser: argparse.ArgumentParser) -> None:
     goal = parser.add_argument_group(
         "targets (fractions of K0; beam = beam bending + axial, ring = ring bending + axial)"
     )
-    for field in _TERMS:
+    texts = {
+        TargetShare: "the share to reach, within --tolerance",
+        ShareAtMost: "an upper limit on the share",
+        ShareAtLeast: "a lower limit on the share",
+    }
+    for field, (term, structure) in _TERMS.items():
         flag = "--" + field.replace("_", "-")
-        goal.add_argument(flag, type=float, dest=field, metavar="X")
+        goal.add_argument(
+            flag,
+            type=float,
+            dest=field,
+            metavar="X",
+            help=f"{texts[term]} of K0 dissipated in the {structure} (default: none)",
+        )
     tuning = parser.add_argument_group("tuning (the design starts at --thickness-ratio)")
     low, high = DEFAULT_BOUNDS["thickness_ratio"]
     tuning.add_argument(
@@ -81,10 +92,18 @@ def add_tune_arguments(parser: argparse.ArgumentParser) -> None:
         "robust tuning (the targets apply to the expected split over impact samples)"
     )
     robust.add_argument(
-        "--velocity-samples", type=float, nargs="+", metavar="V0", help="samples of v0"
+        "--velocity-samples",
+        type=cli.values,
+        nargs="+",
+        metavar="V0",
+        help="samples of v0: x,y,... or a:b:n (as every list option; default: none)",
     )
     robust.add_argument(
-        "--mass-samples", type=float, nargs="+", metavar="G", help="samples of the mass ratio g"
+        "--mass-samples",
+        type=cli.values,
+        nargs="+",
+        metavar="G",
+        help="samples of the mass ratio g: x,y,... or a:b:n (default: none)",
     )
     robust.add_argument(
         "--pair-samples",
@@ -116,8 +135,12 @@ def _objective(args: argparse.Namespace):
     return objective(*terms)
 
 
+def _flat(lists):
+    return None if lists is None else [v for values in lists for v in values]
+
+
 def _conditions(args: argparse.Namespace) -> Conditions | None:
-    velocity, mass = args.velocity_samples, args.mass_samples
+    velocity, mass = _flat(args.velocity_samples), _flat(args.mass_samples)
     if velocity is None and mass is None:
         if args.pair_samples:
             raise ValueError("--pair-samples needs --velocity-samples and --mass-samples")
@@ -188,5 +211,9 @@ def report(result) -> str:
             beam = f["beam_bending"] + f["beam_axial"]
             ring = f["ring_bending"] + f["ring_axial"]
             lines.append(f"  {v0!s:>6} {g!s:>6}  {beam:8.4f} {ring:8.4f}")
+    lines.append(
+        "final collision: "
+        + ("settled" if result.settled else "NOT settled (" + ", ".join(result.final_status) + ")")
+    )
     lines.append(f"iterations {result.iterations}, wall time {result.wall_time_s:.1f} s")
     return "\n".join(lines)

@@ -83,6 +83,9 @@ class TuneResult:
     achievable: dict[str, list[float]]  # [min, max] of each share over the box's corners
     wall_time_s: float
     bracketing_steps: int = 0  # sharp evaluations spent by the bracketing safeguard
+    # how the sharp collision(s) at `design` ended: settled (dissipation stopped) or not
+    final_status: list[str] = dataclasses.field(default_factory=list)
+    settled: bool = False
     # robust tuning only (a problem with Conditions): `fractions` is then the expected split
     conditions: list[dict[str, float]] | None = None  # each sample's v0, g and weight
     samples: list[dict[str, float]] | None = None  # each sample's sharp partition at `design`
@@ -115,6 +118,8 @@ class TuneResult:
             "achievable": self.achievable,
             "wall_time_s": self.wall_time_s,
             "bracketing_steps": self.bracketing_steps,
+            "final_status": self.final_status,
+            "settled": self.settled,
             **robust,
         }
 
@@ -171,6 +176,7 @@ def tune(
     sharp_correction: bool = True,
     progress: Callable[[str], None] | None = None,
     bracket: int = 12,
+    optimiser: Callable[[float], optax.GradientTransformation] = optax.adam,
 ) -> TuneResult:
     """Find a design whose *sharp-model* partition meets `objective` within `tolerance` (K0).
 
@@ -186,6 +192,9 @@ def tune(
     - `bracket`: sharp evaluations the bracketing safeguard may spend when the gradient steps
       end without meeting the target (`_bracket`; one design variable, one `TargetShare`); 0:
       none.
+    - `optimiser`: an optax optimiser, called with each stage's learning rate (default
+      `optax.adam`; e.g. ``optax.sgd`` or ``lambda lr: optax.chain(optax.clip(1.0),
+      optax.adam(lr))``); it is restarted at every stage.
 
     With `Conditions` in `problem` (robust tuning) the objective is met by the expected sharp
     partition over the samples; `TuneResult.samples` and `.spread` say how each sample fares.
@@ -197,8 +206,8 @@ def tune(
     width = box.width()
     run = _Run(objective, tolerance, progress, problem)
     for stage in stages:
-        optimiser = optax.adam(stage.learning_rate)
-        state = optimiser.init(unit)
+        step = optimiser(stage.learning_rate)
+        state = step.init(unit)
         smoothing = dict(
             yield_smoothing=stage.yield_smoothing, contact_smoothing=stage.contact_smoothing
         )
@@ -216,7 +225,7 @@ def tune(
             run.pushing_out = run.pushing_out + 1 if _on_bound_pushing_out(unit, grad_unit) else 0
             if run.pushing_out >= STALL:
                 break  # held on a bound by the gradient: more iterations cannot help
-            updates, state = optimiser.update(grad_unit, state, unit)
+            updates, state = step.update(grad_unit, state, unit)
             unit = project(optax.apply_updates(unit, updates))
         if run.pushing_out >= STALL:
             break
@@ -371,8 +380,17 @@ def _finish(run: _Run, problem: Problem, box: Box, status: str, start: float) ->
             )
             + ")"
         )
+    final = [m.RESULTS(int(c)).status for c in np.atleast_1d(np.asarray(sharp.result))]
+    settled = all(c == m.RESULTS.settled for c in np.atleast_1d(np.asarray(sharp.result)))
+    if not settled:
+        message += (
+            f"; note: the final collision did not settle ({', '.join(sorted(set(final)))}): "
+            "raise --t-max so that the split is final"
+        )
     return TuneResult(
         design=point,
+        final_status=final,
+        settled=bool(settled),
         status=status,
         message=message,
         fractions=_floats(sharp.fractions),

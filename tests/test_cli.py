@@ -75,7 +75,7 @@ def test_table(capsys):
 def test_si_input_prints_the_time_scale(capsys):
     code, out, err = _msfd(capsys, "--si")
     assert code == 0, err
-    assert "SI time scale" in out
+    assert "time T" in out and "K0 " in out and "kJ" in out
     # The paper's SI base case is the non-dimensional showcase.
     assert "h_b/h_r = 2.5" in out and "g = 10," in out
 

@@ -122,6 +122,31 @@ def test_cli_tune_json(problem, capsys):
     assert abs(beam - 0.6) <= 0.01
     assert cli.main(["tune", "--json", "--no-cache"]) == cli.EXIT_USAGE  # no target given
     assert np.isfinite(record["thickness_ratio"])
+    assert record["final_status"] and record["settled"] == (record["final_status"] == ["settled"])
+
+
+def test_tune_takes_an_optax_optimiser(problem):
+    import optax
+
+    rates = []
+
+    def sgd(learning_rate):
+        rates.append(learning_rate)
+        return optax.sgd(learning_rate)
+
+    stages = (o.Stage(0.05, 0.01, 1, 0.08), o.Stage(0.02, 0.004, 1, 0.04))
+    goal = o.objective(o.TargetShare("beam", 0.95))  # unreachable: every stage runs
+    result = o.tune(
+        o.Design(thickness_ratio=2.5),
+        problem,
+        goal,
+        stages=stages,
+        optimiser=sgd,
+        progress=None,
+        bracket=0,
+    )
+    assert rates == [0.08, 0.04]
+    assert result.final_status and isinstance(result.settled, bool)
 
 
 def test_bracketing_safeguard_finds_a_target_without_gradient_steps(problem):

@@ -13,10 +13,13 @@ Exit codes: 0 success, 2 bad input (argparse or parameter validation), 3 failed 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from collections.abc import Callable, Sequence
 
-from . import bench, reproduce, run, sweep, tune
+import msfd_jax
+
+from . import bench, case, reproduce, run, sweep, tune
 from .common import (
     EXIT_OK,
     EXIT_SOLVE,
@@ -79,12 +82,49 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="msfd", description="Ring-on-beam collisions with the MS-FD model (Ruan & Yu 2003)."
     )
+    parser.add_argument("--version", action="version", version=f"msfd-jax {msfd_jax.__version__}")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    parser.commands = {}  # name -> subparser (case files set its defaults)
     for name, (text, add_arguments, handler) in COMMANDS.items():
         sub = commands.add_parser(name, help=text, description=text)
         add_arguments(sub)
         sub.set_defaults(handler=handler)
+        parser.commands[name] = sub
+        _state_defaults(sub)
     return parser
+
+
+def _state_defaults(parser: argparse.ArgumentParser) -> None:
+    """Append its default to every option's help that does not state one."""
+    for action in parser._actions:
+        if action.help == argparse.SUPPRESS or action.dest in ("help", "version"):
+            continue
+        text = action.help or action.dest.replace("_", " ")
+        if "default" in text:
+            continue
+        value = action.default
+        if action.nargs == 0 and value in (False, None):
+            shown = "off"
+        elif value is None:
+            shown = "none"
+        elif isinstance(value, list | tuple):
+            shown = ",".join(map(str, value)) or "none"
+        else:
+            shown = str(value)
+        action.help = f"{text} (default: {shown.replace('%', '%%')})"
+
+
+def _with_files(parser: argparse.ArgumentParser, args, argv) -> argparse.Namespace:
+    """Parse again with the defaults of --from-json and the case file (the line overrides)."""
+    from_json, case_file = getattr(args, "from_json", None), getattr(args, "case", None)
+    if from_json is None and case_file is None:
+        return args
+    sub = parser.commands[args.command]
+    defaults = {} if from_json is None else run.json_defaults(from_json)
+    if case_file is not None:
+        defaults.update(case.load(case_file, sub))
+    sub.set_defaults(**defaults)
+    return parser.parse_args(argv)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -95,7 +135,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exit_:  # argparse has printed its message
         return EXIT_OK if exit_.code is None else int(exit_.code)
     try:
+        args = _with_files(parser, args, argv)
         return args.handler(args)
     except UsageError as error:
         print(f"msfd: error: {error}", file=sys.stderr)
+        if getattr(args, "json", False) and args.command == "run":
+            inputs = {"argv": list(sys.argv[1:] if argv is None else argv)}
+            print(json.dumps(run.failure_record("bad input", str(error), inputs)))
         return EXIT_USAGE

@@ -15,6 +15,8 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
+
 import msfd_jax as m
 from msfd_jax._progress import LineProgress  # noqa: F401 (for optimise: msfd tune)
 
@@ -66,6 +68,39 @@ OPTION_NAMES = {
 }
 
 
+def values(text: str) -> list[float]:
+    """One list syntax for every subcommand: ``a:b:n`` (n values from a to b inclusive),
+    ``x,y,...`` or ``x``."""
+    try:
+        if ":" in text:
+            low, high, count = text.split(":")
+            n = int(count)
+            if n < 1:
+                raise ValueError
+            return [float(v) for v in np.linspace(float(low), float(high), n)]
+        out = [float(v) for v in text.split(",") if v.strip()]
+        if not out:
+            raise ValueError
+        return out
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a:b:n (n >= 1 values), x,y,... or x; got {text!r}"
+        ) from None
+
+
+def add_case_argument(parser: argparse.ArgumentParser) -> None:
+    """The optional case file: ``msfd run CASE.toml`` (options given on the line override it)."""
+    parser.add_argument(
+        "case",
+        nargs="?",
+        type=Path,
+        metavar="CASE.toml",
+        help="a case file: one [section] per option group, keys named as the long options "
+        "with _ for - (docs/si.md); options given on the command line override it "
+        "(default: none)",
+    )
+
+
 def add_collision_arguments(parser: argparse.ArgumentParser) -> None:
     """Non-dimensional groups (Eq. 1) or their SI alternative, as `from_si` takes them."""
     group = parser.add_argument_group("collision (non-dimensional, Eq. 1; paper's Fig. 13)")
@@ -82,9 +117,15 @@ def add_collision_arguments(parser: argparse.ArgumentParser) -> None:
     si = parser.add_argument_group(
         "SI inputs (instead of the groups above; missing values are the paper's base case)"
     )
-    si.add_argument("--si", action="store_true", help="give the collision in SI units")
+    si.add_argument(
+        "--si", action="store_true", help="give the collision in SI units (default: off)"
+    )
     for field, (flag, text) in SI.items():
-        si.add_argument(flag, type=float, dest=f"si_{field}", metavar="X", help=text)
+        default = m.PAPER_SI.get(field)
+        shown = "the ring width" if default is None else f"{default:g}"
+        si.add_argument(
+            flag, type=float, dest=f"si_{field}", metavar="X", help=f"{text} (default {shown})"
+        )
 
 
 def add_numerics_arguments(parser: argparse.ArgumentParser) -> None:
@@ -93,13 +134,32 @@ def add_numerics_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("mesh (paper: 15 ring, 20 + 5 beam segments)")
     for field in ("ring_segments", "beam_contact_segments", "beam_outer_segments"):
         default = getattr(mesh, field)
-        group.add_argument(OPTION_NAMES[field], type=int, default=default, help=f"({default})")
-    group.add_argument("--contact-region", type=float, default=mesh.contact_region, help="OC / R")
+        text = field.replace("_", " ")
+        group.add_argument(
+            OPTION_NAMES[field], type=int, default=default, help=f"{text} (default %(default)s)"
+        )
+    group.add_argument(
+        "--contact-region",
+        type=float,
+        default=mesh.contact_region,
+        help="OC / R, length of the finely meshed contact region (default %(default)s)",
+    )
     group = parser.add_argument_group("numerics")
-    group.add_argument("--safety", type=float, default=settings.safety, help="dt / dt_crit")
-    group.add_argument("--dt", type=float, help="fixed time step (overrides --safety)")
-    group.add_argument("--t-max", type=float, default=settings.t_max, help="cap on tau")
-    group.add_argument("--history-points", type=int, default=settings.history_points)
+    group.add_argument(
+        "--safety", type=float, default=settings.safety, help="dt / dt_crit (default %(default)s)"
+    )
+    group.add_argument(
+        "--dt", type=float, help="fixed time step (overrides --safety; default: from --safety)"
+    )
+    group.add_argument(
+        "--t-max", type=float, default=settings.t_max, help="cap on tau (default %(default)s)"
+    )
+    group.add_argument(
+        "--history-points",
+        type=int,
+        default=settings.history_points,
+        help="samples of the histories over [0, t_max] (default %(default)s)",
+    )
     group.add_argument(
         "--shape-times",
         type=_times,
@@ -107,9 +167,21 @@ def add_numerics_arguments(parser: argparse.ArgumentParser) -> None:
         help="times at which shapes are saved (default: the paper's 0.15,0.49,0.75,1.5 up to "
         "--t-max)",
     )
-    group.add_argument("--contact-smoothing", type=float, default=0.0, help="ramp width / R")
-    group.add_argument("--yield-smoothing", type=float, default=0.0, help="fraction of yield")
-    group.add_argument("--no-cache", action="store_true", help="no persistent compile cache")
+    group.add_argument(
+        "--contact-smoothing",
+        type=float,
+        default=0.0,
+        help="ramp width / R (default %(default)s: sharp)",
+    )
+    group.add_argument(
+        "--yield-smoothing",
+        type=float,
+        default=0.0,
+        help="fraction of yield (default %(default)s: sharp)",
+    )
+    group.add_argument(
+        "--no-cache", action="store_true", help="no persistent compile cache (default: cached)"
+    )
 
 
 def add_quiet_argument(parser: argparse.ArgumentParser, *aliases: str) -> None:
@@ -142,12 +214,9 @@ def mesh_from_args(args: argparse.Namespace) -> m.Mesh:
 
 
 def _times(text: str) -> tuple[float, ...]:
-    try:
-        return tuple(sorted(float(t) for t in text.split(",") if t.strip()))
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected comma-separated numbers, got {text!r}"
-        ) from None
+    if not text.strip():
+        return ()
+    return tuple(sorted(values(text)))
 
 
 def settings_from_args(args: argparse.Namespace) -> m.Settings:

@@ -1,16 +1,31 @@
-"""``msfd run``: simulate one ring-on-beam collision (default: the paper's Fig. 13)."""
+"""``msfd run``: simulate one ring-on-beam collision (default: the paper's Fig. 13).
+
+``msfd run CASE.toml`` reads the options from a case file (`msfd_jax.cli.case`); ``msfd run
+--from-json OUT.json`` reruns the collision an earlier ``--json`` recorded (its params or SI
+inputs, mesh and settings); options given on the command line override either. With
+``--json`` a failure is printed as one JSON object too (``"ok": false``), exit code 2 or 3.
+"""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
+import math
 from pathlib import Path
+from typing import Any
 
 import msfd_jax as m
 
+from .._provenance import now, settings_from_json, versions
+from .._si import table_lines
 from .common import (
     EXIT_OK,
     EXIT_SOLVE,
+    PARAMS,
+    SI,
+    UsageError,
+    add_case_argument,
     add_collision_arguments,
     add_numerics_arguments,
     checked,
@@ -21,13 +36,81 @@ from .common import (
     settings_from_args,
 )
 
+# Settings fields the command line sets (the rest come from --from-json's record, or defaults)
+_CLI_SETTINGS = ("safety", "dt", "t_max", "history_points", "shape_times")
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_case_argument(parser)
     add_collision_arguments(parser)
     add_numerics_arguments(parser)
+    source = parser.add_argument_group("input")
+    source.add_argument(
+        "--from-json",
+        type=Path,
+        metavar="OUT.json",
+        help="rerun the collision recorded by an earlier `msfd run --json` (default: none)",
+    )
     out = parser.add_argument_group("output")
-    out.add_argument("--plot", type=Path, metavar="PATH", help="save the four-panel figure")
-    out.add_argument("--json", action="store_true", help="print one JSON object, nothing else")
+    out.add_argument(
+        "--plot", type=Path, metavar="PATH", help="save the four-panel figure (default: none)"
+    )
+    out.add_argument(
+        "--json", action="store_true", help="print one JSON object, nothing else (default: off)"
+    )
+
+
+def read_record(path: Path) -> dict[str, Any]:
+    """The JSON object of ``msfd run --json`` at `path` (UsageError if it is not one)."""
+    try:
+        record = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as error:
+        raise UsageError(f"--from-json {path}: cannot read a JSON object ({error})") from None
+    if not isinstance(record, dict) or "params" not in record:
+        raise UsageError(f"--from-json {path}: not a record of `msfd run --json` (no params)")
+    return record
+
+
+def json_defaults(path: Path) -> dict[str, Any]:
+    """Argument defaults (dest -> value) that rerun the collision recorded at `path`."""
+    record = read_record(path)
+    out: dict[str, Any] = {}
+    if record.get("si_inputs"):
+        si = dict(record["si_inputs"])
+        out["axial_constraint"] = bool(si.pop("axial_constraint", True))
+        out["si"] = True
+        out.update({f"si_{k}": v for k, v in si.items() if k in SI})
+    else:
+        params = record["params"]
+        out.update({k: params[k] for k in PARAMS if k in params})
+        out["axial_constraint"] = bool(params.get("axial_constraint", 1.0))
+    out.update(record.get("mesh", {}))
+    settings = record.get("settings", {})
+    out.update(
+        {
+            k: settings[k]
+            for k in (*_CLI_SETTINGS, "contact_smoothing", "yield_smoothing")
+            if k in settings
+        }
+    )
+    if "shape_times" in out:
+        out["shape_times"] = tuple(out["shape_times"])
+    return out
+
+
+def _settings(args: argparse.Namespace) -> m.Settings:
+    """The command line's settings; with --from-json the record's other fields are kept."""
+    settings = settings_from_args(args)
+    if args.from_json is None:
+        return settings
+    recorded = read_record(args.from_json).get("settings")
+    if not recorded:
+        return settings
+    recorded = {
+        k: v for k, v in recorded.items() if k not in ("contact_smoothing", "yield_smoothing")
+    }
+    base = settings_from_json(recorded)
+    return dataclasses.replace(base, **{k: getattr(settings, k) for k in _CLI_SETTINGS})
 
 
 def _check_smoothing(args: argparse.Namespace) -> None:
@@ -37,9 +120,39 @@ def _check_smoothing(args: argparse.Namespace) -> None:
             raise ValueError(f"{name} = {value:g} is out of range; allowed [0, 1000]")
 
 
+def _si_inputs(args: argparse.Namespace) -> dict[str, float] | None:
+    given = {k: getattr(args, f"si_{k}") for k in SI if getattr(args, f"si_{k}") is not None}
+    if not (args.si or given):
+        return None
+    return {**m.PAPER_SI, **given, "axial_constraint": bool(args.axial_constraint)}
+
+
+def finite(value: Any) -> Any:
+    """`value` with every non-finite float as None (strict JSON has no NaN or inf)."""
+    if isinstance(value, dict):
+        return {k: finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [finite(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def failure_record(status: str, message: str, inputs: dict[str, Any]) -> dict[str, Any]:
+    """The one JSON object a failed ``--json`` run prints (status, message, when, inputs)."""
+    return {
+        "ok": False,
+        "status": status,
+        "message": message,
+        "when": now(),
+        **inputs,
+        "versions": versions(),
+    }
+
+
 def handle(args: argparse.Namespace) -> int:
     params, scales = checked(collision_from_args, args)
-    mesh, settings = checked(mesh_from_args, args), checked(settings_from_args, args)
+    mesh, settings = checked(mesh_from_args, args), checked(_settings, args)
     # What `ring_on_beam` would reject, checked here so that `run` only fails in the solve.
     checked(m.validate, params, mesh)
     checked(_check_smoothing, args)
@@ -53,19 +166,31 @@ def handle(args: argparse.Namespace) -> int:
             settings,
             contact_smoothing=args.contact_smoothing,
             yield_smoothing=args.yield_smoothing,
+            scales=scales,
+            si_inputs=_si_inputs(args),
         )
     except m.SimulationError as error:
         note(f"simulation failed: {error}")
+        if args.json and error.collision is not None:
+            record = error.collision.to_json()
+            failed = {
+                "ok": False,
+                "message": str(error),
+                "when": now(),
+                "failed_at": {
+                    "tau": record["t_end"],
+                    "steps": record["steps"],
+                    **({"t_s": record["t_end"] * scales.time} if scales is not None else {}),
+                },
+            }
+            print(json.dumps(finite({**record, **failed})))
         return EXIT_SOLVE
     if args.plot is not None:
         from .._plot import plot_collision
 
         plot_collision(collision, args.plot)
     if args.json:
-        record = collision.to_json()
-        if scales is not None:
-            record["si_scales"] = vars(scales)
-        print(json.dumps(record))
+        print(json.dumps(finite({"ok": True, **collision.to_json()})))
     else:
         print(report(collision, scales))
         if args.plot is not None:
@@ -84,7 +209,7 @@ def report(collision: m.Collision, scales: m.Scales | None = None) -> str:
         + ("axially constrained" if p["axial_constraint"] else "axially free"),
         "",
         f"energy partition at tau = {record['t_end']:.4g} (fractions of K0 = "
-        f"{record['k0']:.4g} M_pr)",
+        f"{record['k0']:.4g} M_pr, half model)",
     ]
     total = 0.0
     for key, value in record["fractions"].items():
@@ -101,12 +226,10 @@ def report(collision: m.Collision, scales: m.Scales | None = None) -> str:
         f" x dt_crit ({record['dt_critical']:.3e})",
         f"wall time             {record['wall_time_s']:.2f} s (including any compilation)",
     ]
-    if scales is not None:
-        t_end_ms = 1e3 * record["t_end"] * scales.time
-        k0_joule = record["k0"] * scales.moment
-        lines += [
-            f"SI time scale T       {scales.time:.4g} s (t_end = {t_end_ms:.4g} ms)",
-            f"SI energy unit M_pr   {scales.moment:.4g} J (K0 = {k0_joule:.4g} J)",
-        ]
+    si = record.get("si")
+    if si is None and scales is not None:  # a collision run without scales, shown in SI
+        si = dataclasses.replace(collision, scales=scales).si
+    if si is not None:
+        lines += ["", *table_lines(si)]
     lines.append(f"status: {collision.message}")
     return "\n".join(lines)

@@ -17,7 +17,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -26,30 +25,17 @@ from .. import _cluster
 from .._outputs import FRACTION_KEYS
 from .._params import CollisionParams
 from .._sweep import DEFAULT_CHUNK, INPUTS, SweepTable, sweep
-from . import common
+from . import common, sweep_si
 
 _CONSTRAINT = {"held": [1.0], "free": [0.0], "both": [0.0, 1.0]}
 _SUMMARY = (*FRACTION_KEYS[:5], "t_end", "status")
 
 
-def values(text: str) -> list[float]:
-    """``a:b:n`` (n values from a to b inclusive), ``x,y,...`` or ``x``."""
-    try:
-        if ":" in text:
-            low, high, count = text.split(":")
-            n = int(count)
-            if n < 1:
-                raise ValueError
-            return [float(v) for v in np.linspace(float(low), float(high), n)]
-        return [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected a:b:n (n >= 1 values), x,y,... or x; got {text!r}"
-        ) from None
+values = common.values  # one list syntax for every subcommand
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-
+    common.add_case_argument(parser)
     group = parser.add_argument_group(
         "grid (lists x,y,... or ranges a:b:n; unset groups keep the paper's Fig. 13 value)"
     )
@@ -69,8 +55,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--from-csv",
         type=Path,
         metavar="PATH",
-        help="a list of collisions instead of a grid: CSV with a header of input names",
+        help="a list of collisions instead of a grid: CSV with a header of input names "
+        "(default: none)",
     )
+    sweep_si.add_si_arguments(parser)
     common.add_numerics_arguments(parser)
     # a sweep keeps final values only: two history samples and no shapes unless asked
     parser.set_defaults(history_points=2, shape_times=())
@@ -143,6 +131,8 @@ def handle(args: argparse.Namespace) -> int:
     if args.host_devices is not None:
         _use_host_devices(args.host_devices, args.shard)
     spec = common.checked(grid_from_args, args)
+    spec, si_info = common.checked(sweep_si.si_rows, args, spec)
+    sweep_si.check_netcdf(args)
     mesh = common.checked(common.mesh_from_args, args)
     settings = common.checked(common.settings_from_args, args)
     output = _output(args)
@@ -174,10 +164,15 @@ def handle(args: argparse.Namespace) -> int:
     finally:
         if client is not None:
             _cluster.close(client)
+    sweep_si.add_columns(table, si_info, mesh, settings, args)
+    record = sweep_si.provenance(mesh, settings, args)
+    if args.csv is not None:  # the finished table, now with its SI and provenance columns
+        table.to_csv(args.csv)
+        sweep_si.write_provenance(args.csv, record)
     if args.netcdf is not None:
-        _write_netcdf(table, args.netcdf)
+        sweep_si.write_netcdf(table, args.netcdf, record)
     if args.json:
-        print(json.dumps(table.rows()))
+        print(json.dumps([{**row, "versions": record["versions"]} for row in table.rows()]))
     else:
         print(summary(table))
         if output is not None:

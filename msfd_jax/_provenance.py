@@ -1,0 +1,82 @@
+"""What a run needs to be made again: its mesh, settings and smoothing as JSON, and versions.
+
+``msfd run --json`` records `mesh_json`, `settings_json` and `versions`; ``msfd run
+--from-json`` reads them back with `mesh_from_json` and `settings_from_json`. Every field of
+`Mesh` and `Settings` is written (generically, so a field added later is recorded too).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime
+import importlib.metadata
+import platform
+import sys
+from typing import Any
+
+import numpy as np
+
+from ._params import Mesh
+
+_PACKAGES = ("msfd-jax", "jax", "jaxlib", "diffrax", "equinox", "optax", "numpy")
+
+
+def _version(name: str) -> str:
+    try:
+        return importlib.metadata.version(name)
+    except importlib.metadata.PackageNotFoundError:
+        return "not installed"
+
+
+def versions() -> dict[str, str]:
+    """Versions of msfd-jax and what it runs on (packages, Python, platform, JAX backend)."""
+    out = {name: _version(name) for name in _PACKAGES}
+    out["python"] = sys.version.split()[0]
+    out["platform"] = platform.platform()
+    try:
+        import jax
+
+        out["jax_backend"] = jax.default_backend()
+    except Exception:  # noqa: BLE001 (a missing backend must not stop a record)
+        out["jax_backend"] = "unknown"
+    return out
+
+
+def now() -> str:
+    """The current time, UTC, ISO 8601."""
+    return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, tuple | list):
+        return [_plain(v) for v in value]
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return value
+    if isinstance(value, int | np.integer):
+        return int(value)
+    return float(np.asarray(value))
+
+
+def _fields(module) -> dict[str, Any]:
+    return {f.name: _plain(getattr(module, f.name)) for f in dataclasses.fields(module)}
+
+
+def mesh_json(mesh: Mesh) -> dict[str, Any]:
+    return _fields(mesh)
+
+
+def settings_json(settings) -> dict[str, Any]:
+    return _fields(settings)
+
+
+def mesh_from_json(record: dict[str, Any]) -> Mesh:
+    return Mesh(**record)
+
+
+def settings_from_json(record: dict[str, Any]):
+    from ._simulate import Settings
+
+    values = dict(record)
+    if "shape_times" in values:
+        values["shape_times"] = tuple(float(t) for t in values["shape_times"])
+    return Settings(**values)

@@ -1,0 +1,40 @@
+"""The installed versions satisfy the lower bounds declared in pyproject.toml.
+
+Testing *at* the minimums needs its own environment, e.g.
+``uv venv /tmp/min && uv pip install --resolution lowest-direct -e '.[test]' && pytest``.
+"""
+
+import importlib.metadata
+import re
+import tomllib
+from pathlib import Path
+
+import pytest
+
+PYPROJECT = Path(__file__).resolve().parent.parent / "pyproject.toml"
+DEPENDENCIES = tomllib.loads(PYPROJECT.read_text())["project"]["dependencies"]
+
+
+def _numbers(version: str) -> tuple[int, ...]:
+    return tuple(int(p) for p in re.findall(r"\d+", version.split("+")[0])[:3])
+
+
+@pytest.mark.parametrize("requirement", DEPENDENCIES)
+def test_installed_version_meets_the_declared_minimum(requirement):
+    name, minimum = re.fullmatch(r"([A-Za-z0-9_.-]+)>=([0-9.]+)", requirement).groups()
+    installed = importlib.metadata.version(name)
+    assert _numbers(installed) >= _numbers(minimum), f"{name} {installed} < {minimum}"
+
+
+def test_the_features_behind_the_bounds_exist():
+    import inspect
+
+    import jax
+
+    assert "check_vma" in inspect.signature(jax.shard_map).parameters
+
+
+def test_version_is_the_package_metadata():
+    import msfd_jax
+
+    assert msfd_jax.__version__ == importlib.metadata.version("msfd-jax")

@@ -1,0 +1,143 @@
+"""SI design quantities (whole structure) against hand calculations on the small test case."""
+
+import contextlib
+import io
+import json
+import math
+
+import numpy as np
+import pytest
+from conftest import SMALL_MESH
+
+import msfd_jax as m
+from msfd_jax._si import DISSIPATION_KEYS, motion
+from msfd_jax.cli import main
+
+SETTINGS = m.Settings(t_max=1.5, history_points=61, shape_times=(0.5,))
+SMALL = [
+    "--ring-segments=6",
+    "--beam-contact-segments=8",
+    "--beam-outer-segments=2",
+    "--t-max=1.5",
+    "--history-points=61",
+    "--shape-times=0.5",
+    "--no-cache",
+]
+
+
+@pytest.fixture(scope="module")
+def collision():
+    return m.run_si(SMALL_MESH, SETTINGS)
+
+
+def test_energies_are_twice_the_half_model_in_joules(collision):
+    si, f = collision.si, collision.fractions
+    scales = collision.scales
+    k0 = 2 * float(collision.solution.k0) * scales.moment
+    assert si["k0_J"] == pytest.approx(k0, rel=1e-14)
+    # by hand from the SI inputs: (2G + pi R mu_r) V0^2 / 2, the ring's polygon slightly light
+    p = m.PAPER_SI
+    mu_r = p["density"] * p["width"] * p["ring_thickness"]
+    hand = 0.5 * (p["block_mass"] + math.pi * p["radius"] * mu_r) * p["velocity"] ** 2
+    assert si["k0_J"] == pytest.approx(hand, rel=0.01)
+    for key in DISSIPATION_KEYS:
+        assert si["dissipated_J"][key] == pytest.approx(f[key] * si["k0_J"], rel=1e-14)
+    dissipated = sum(f[k] for k in DISSIPATION_KEYS) * si["k0_J"]
+    assert si["dissipated_total_J"] == pytest.approx(dissipated, rel=1e-14)
+    total = si["dissipated_total_J"] + si["energy_left_total_J"]
+    assert total == pytest.approx(si["k0_J"], abs=0.02 * si["k0_J"])  # energy balance
+
+
+def test_peaks_against_the_saved_shapes_and_history(collision):
+    si, sol, scene = collision.si, collision.solution, collision.scene
+    R = collision.scales.length
+    beam = scene.chain_index("beam")
+    y0 = float(np.asarray(sol.shapes[beam])[0, 0, 1])
+    final = abs(float(np.asarray(sol.final.x[beam])[0, 1]) - y0) * R
+    assert si["final_beam_deflection_m"] == pytest.approx(final, rel=1e-12)
+    # the user's shape time 0.5 is among the saved ones; the peak bounds it and the final one
+    ts = np.asarray(sol.shape_ts)
+    at = int(np.argmin(np.abs(ts - 0.5)))
+    mid = abs(float(np.asarray(sol.shapes[beam])[at, 0, 1]) - y0) * R
+    assert si["peak_beam_deflection_m"] >= max(mid, final) > 0
+    # the peak is the largest of the sampled shapes inside the run (hand maximum)
+    keep = ts <= float(sol.t_end)
+    ys = np.asarray(sol.shapes[beam])[keep, 0, 1]
+    assert si["peak_beam_deflection_m"] == pytest.approx(np.max(np.abs(ys - y0)) * R, rel=1e-12)
+    # force: both halves of the beam, M_pr / R
+    force = np.asarray(sol.history["contact_force"]).reshape(len(sol.ts), -1).sum(-1)
+    force = force[np.asarray(sol.ts) <= float(sol.t_end)]
+    hand = 2 * force.max() * collision.scales.force
+    assert si["peak_contact_force_N"] == pytest.approx(hand, rel=1e-12)
+    assert si["duration_s"] == pytest.approx(float(sol.t_end) * collision.scales.time)
+    # deceleration: the block starts at V0 and slows; its peak exceeds the mean deceleration
+    moved = motion(collision)
+    assert moved["t"][0] == 0.0 and np.all(np.diff(moved["t"]) > 0)
+    v0 = m.PAPER_SI["velocity"]
+    assert si["peak_block_deceleration_m_s2"] > 0.5 * v0 / si["duration_s"]
+    assert si["peak_block_deceleration_g"] == pytest.approx(
+        si["peak_block_deceleration_m_s2"] / 9.80665
+    )
+
+
+def test_fractions_do_not_depend_on_the_saved_motion(collision):
+    plain = m.run(collision.params, SMALL_MESH, SETTINGS)
+    for key, value in plain.fractions.items():
+        assert collision.fractions[key] == pytest.approx(value, abs=1e-12)
+
+
+def test_cli_si_json_and_table():
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
+        assert main(["run", *SMALL, "--si", "--json"]) == 0
+    record = json.loads(out.getvalue())
+    si = record["si"]
+    for key in (
+        "k0_J",
+        "dissipated_J",
+        "peak_beam_deflection_m",
+        "peak_contact_force_N",
+        "peak_block_deceleration_m_s2",
+        "duration_s",
+        "energy_left_J",
+        "scales",
+    ):
+        assert key in si
+    assert set(si["dissipated_J"]) == set(DISSIPATION_KEYS)
+    assert record["si_inputs"]["velocity"] == 30.0
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
+        assert main(["run", *SMALL, "--si"]) == 0
+    text = out.getvalue()
+    assert "kJ" in text and "kN" in text and "mm" in text and "m/s^2" in text
+
+
+def test_si_figures_and_axes_arguments(collision, tmp_path):
+    from matplotlib.figure import Figure
+
+    from msfd_jax._plot import plot_collision, plot_energies, plot_partition, plot_shapes
+    from msfd_jax._sweep import SweepTable
+
+    fig = plot_collision(collision, tmp_path / "si.png")
+    labels = {ax.get_xlabel() for ax in fig.axes} | {ax.get_ylabel() for ax in fig.axes}
+    assert "t [ms]" in labels and "energy [kJ] (whole structure)" in labels and "y [m]" in labels
+    assert (tmp_path / "si.png").stat().st_size > 0
+    plain = plot_collision(collision, si=False)
+    assert r"$E / K_0$" in {ax.get_ylabel() for ax in plain.axes}
+    # ax= draws on the caller's axes; a sweep table gives one bar per row
+    host = Figure()
+    left, right = host.subplots(1, 2)
+    assert plot_energies(collision, left) is host and plot_shapes(collision, right) is host
+    table = SweepTable(
+        {
+            **{k: np.array([v, v]) for k, v in collision.fractions.items()},
+            "thickness_ratio": np.array([1.5, 2.5]),
+            "velocity": np.array([0.8, 0.8]),
+        }
+    )
+    bars = Figure().subplots()
+    plot_partition(table, ax=bars)
+    assert [t.get_text() for t in bars.get_yticklabels()] == [
+        "thickness_ratio = 1.5",
+        "thickness_ratio = 2.5",
+    ]
