@@ -226,15 +226,6 @@ def _client(args: argparse.Namespace):
         ) from None
 
 
-def _write_netcdf(table: SweepTable, path: Path) -> None:
-    try:
-        table.to_netcdf(path)
-    except ImportError:
-        print("msfd: --netcdf needs xarray (pip install 'msfd-jax[sweep]')", file=sys.stderr)
-    except ValueError as error:
-        print(f"msfd: no NetCDF written: {error}", file=sys.stderr)
-
-
 def summary(table: SweepTable, max_rows: int = 40) -> str:
     """Inputs that vary and the main fractions of K0, one line per collision."""
     varying = [k for k in INPUTS if np.unique(table[k]).size > 1]
