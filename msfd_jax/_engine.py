@@ -21,6 +21,7 @@ from __future__ import annotations
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from ._flat import FlatScene, PairLayout
@@ -28,7 +29,7 @@ from ._laws import contact_energy, contact_spring, elastic_plastic
 from ._results import RESULTS
 from ._safe import safe_norm
 
-_MIRROR = jnp.array([1.0, -1.0])[None, :, None]  # diag(1, -1) acting on (n, 2, B) vectors
+_MIRROR = np.array([1.0, -1.0])[None, :, None]  # diag(1, -1) acting on (n, 2, B) vectors
 
 
 class BatchState(eqx.Module):
