@@ -11,11 +11,14 @@ from . import _batch as b
 
 
 def draw_fig15(numbers: dict, figures_dir: Path) -> list[str]:
-    """``fig15.png``: per case, (a) the fine run's force and (c) the whole response's."""
+    """``fig15.png``: per case a row, the fine run's force and the whole response's; panels
+    lettered (a), (b), (c), ... row by row (issue 14: the letters were repeated per row)."""
     cases, curves = numbers["cases"], numbers["curves"]
     fig = Figure(figsize=(13, 3.6 * len(cases)), layout="constrained")
     axes = fig.subplots(len(cases), 2, squeeze=False)
+    letters = iter("abcdefghijklmnopqrstuvwxyz")
     for r, c, (ax_a, ax_c) in zip(cases, curves, axes, strict=True):
+        first, second = next(letters), next(letters)
         ax_a.plot(c["fine_ts"], c["fine_force"], "k-", lw=0.6, label="raw")
         ax_a.plot(
             c["fine_ts"],
@@ -27,7 +30,8 @@ def draw_fig15(numbers: dict, figures_dir: Path) -> list[str]:
         ax_a.set(
             xlabel=r"$\tau$",
             ylabel="contact force $PR/M_{pr}$",
-            title=f"(a) {r['case']}: tau <= {b.FINE_T_MAX:g}, {r['separations_fine']} separations",
+            title=f"({first}) {r['case']}: tau <= {b.FINE_T_MAX:g}, "
+            f"{r['separations_fine']} separations",
             xlim=(0, b.FINE_T_MAX),
         )
         ts = c["whole_ts"]
@@ -40,7 +44,8 @@ def draw_fig15(numbers: dict, figures_dir: Path) -> list[str]:
         closed = not np.isnan(last_raw)  # the raw contact closed at some sample
         ax_c.set(
             xlabel=r"$\tau$",
-            title=f"(c) whole response: {r['separations_whole']} separations in the raw force",
+            title=f"({second}) whole response: {r['separations_whole']} separations in the "
+            "raw force",
             xlim=(0, min(r["t_end"], 1.2 * last_raw + 0.1) if closed else r["t_end"]),
         )
         for ax in (ax_a, ax_c):

@@ -161,14 +161,15 @@ def plot_fig14(cases: list[b.Run], sweep: list[b.Run]):
     """Fig. 14's final rings and the dimple depth against h_b/h_r."""
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(14, 4.2), layout="constrained")
+    # titles on two lines and a wider figure: one line was cut off at 14 in (issue 14)
+    fig = Figure(figsize=(4.2 * len(cases) + 5.0, 4.6), layout="constrained")
     axes = fig.subplots(1, len(cases) + 1, width_ratios=[1.0] * len(cases) + [1.2])
     for ax, run in zip(axes[:-1], cases, strict=True):
         w = dimple_depth(run.final[b.RING])
         _draw(
             ax,
             run.final,
-            f"h_b/h_r = {run.params['thickness_ratio']:g}: w = {w:.3f} ({classify(w)})",
+            f"h_b/h_r = {run.params['thickness_ratio']:g}\nw = {w:.3f} ({classify(w)})",
         )
     ax = axes[-1]
     h = np.array([r.params["thickness_ratio"] for r in sweep])
@@ -180,7 +181,7 @@ def plot_fig14(cases: list[b.Run], sweep: list[b.Run]):
     ax.text(h[0], 0.012, "U | slightly W (0.1 h_r/R)", fontsize=7)
     ax.text(h[0], 0.105, "slightly W | W (h_r/R)", fontsize=7)
     ax.plot(h, ring, "s-", color="tab:red", ms=3, label="ring share of K0")
-    ax.set(xlabel="$h_b/h_r$", title="'U' to 'W' against beam thickness (constrained)")
+    ax.set(xlabel="$h_b/h_r$", title="'U' to 'W' against beam thickness\n(constrained)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.suptitle("Fig. 14: final rings (g = 10, v0 = 0.82, beam axially constrained)")
