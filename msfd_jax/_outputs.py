@@ -18,7 +18,8 @@ from ._si import design_quantities, motion_settings
 from ._simulate import (
     Settings,
     Solution,
-    simulate,
+    _simulate,
+    prepare,
 )
 
 FRACTION_KEYS = (
@@ -155,6 +156,7 @@ class Collision:
     scene: Scene
     solution: Solution
     wall_time_s: float
+    compile_time_s: float = float("nan")
     settings: Settings | None = None
     contact_smoothing: float = 0.0
     yield_smoothing: float = 0.0
@@ -196,6 +198,7 @@ class Collision:
             "k0": float(self.solution.k0),
             "status": self.status,
             "wall_time_s": self.wall_time_s,
+            "compile_time_s": self.compile_time_s,
             "params": {
                 f.name: float(np.asarray(getattr(self.params, f.name)))
                 for f in dataclasses.fields(self.params)
@@ -257,8 +260,13 @@ def run(
     if scales is not None and not isinstance(scales, Scales):
         raise TypeError(f"scales must be a msfd_jax.Scales (from from_si), got {scales!r}")
     solved = settings if scales is None else motion_settings(settings)
+    # compile (or load from the cache) first, then run: the two are timed apart (issue 11)
     start = time.perf_counter()
-    solution = jax.block_until_ready(simulate(scene, solved))
+    args = prepare(scene, solved)
+    compiled = _simulate.lower(*args).compile()
+    compile_s = time.perf_counter() - start
+    start = time.perf_counter()
+    solution = jax.block_until_ready(compiled(*args))
     wall = time.perf_counter() - start
     collision = Collision(
         params,
@@ -266,6 +274,7 @@ def run(
         scene,
         solution,
         wall,
+        compile_time_s=compile_s,
         settings=settings,
         contact_smoothing=float(contact_smoothing),
         yield_smoothing=float(yield_smoothing),

@@ -258,6 +258,15 @@ def simulate(
     - `dt_critical`: the scene's stability limit when already known (`critical_step(scene)`);
       None computes it. Giving a wrong value gives a wrong step: it is not checked.
     """
+    return _simulate(*prepare(scene, settings, adjoint, dt_critical))
+
+
+def prepare(scene: Scene, settings: Settings, adjoint=None, dt_critical=None) -> tuple:
+    """The arguments of the compiled `_simulate` for `simulate(scene, settings, ...)`.
+
+    ``_simulate.lower(*prepare(...)).compile()`` compiles (or loads from the persistent
+    cache) ahead of the run, so that `run` can time compilation and the run apart.
+    """
     adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
     if not isinstance(settings.t_max, jax.core.Tracer):
         # shape times past the cap are dropped (a short run keeps the default times it reaches)
@@ -269,4 +278,4 @@ def simulate(
     )
     if dt_critical is not None and settings.max_steps is None:
         raise ValueError("with dt_critical given, give Settings(max_steps=...) too")
-    return _simulate(scene, settings, max_steps_for(scene, settings), adjoint, dt_critical)
+    return scene, settings, max_steps_for(scene, settings), adjoint, dt_critical

@@ -55,7 +55,7 @@ OUTPUTS = (
 # Histories are (history_points, ...) per collision: a sweep keeps only the final partition,
 # so by default it saves two history samples and no shapes (the outputs do not depend on them).
 SWEEP_SETTINGS = Settings(history_points=2, shape_times=())
-DEFAULT_CHUNK = 64
+DEFAULT_CHUNK = 16  # slots: the fastest of 8, 16, 64 on one core (benchmarks/results/core.md)
 # compile and run time of the last in-process sweep (slots, segments, compile_s, run_s)
 LAST_TIMING: dict = {}
 

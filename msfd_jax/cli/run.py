@@ -224,7 +224,8 @@ def report(collision: m.Collision, scales: m.Scales | None = None) -> str:
         f"steps                 {record['steps']}",
         f"dt                    {record['dt']:.3e} = {record['dt'] / record['dt_critical']:.2f}"
         f" x dt_crit ({record['dt_critical']:.3e})",
-        f"wall time             {record['wall_time_s']:.2f} s (including any compilation)",
+        f"run time              {record['wall_time_s']:.3f} s (compile or cache load "
+        f"{record.get('compile_time_s', float('nan')):.2f} s, apart)",
     ]
     si = record.get("si")
     if si is None and scales is not None:  # a collision run without scales, shown in SI

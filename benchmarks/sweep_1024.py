@@ -1,0 +1,62 @@
+"""Issue 11's goal 2: 1024 paper-mesh collisions with plain ``msfd sweep`` on this machine.
+
+h_b/h_r 0.25-5 x 64, free/held, g = 5, 10, 20, 40, v0 = 0.6, 0.82: each configuration is run
+twice as a new process (the first fills the persistent compile cache, the second is timed:
+"compilation from the cache included"), in process (one core) and on a LocalCluster of two
+workers (``--cluster local:2``). Goal: <= 30 s wall.
+
+    python benchmarks/sweep_1024.py            # writes benchmarks/results/sweep_1024.md
+"""
+
+from __future__ import annotations
+
+import datetime
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+RESULTS = Path(__file__).resolve().parent / "results"
+GRID = [
+    "--thickness-ratio", "0.25:5:64", "--axial-constraint", "both",
+    "--mass-ratio", "5,10,20,40", "--velocity", "0.6,0.82", "-q",
+]  # fmt: skip
+CONFIGS = {"in process (one core)": [], "--cluster local:2": ["--cluster", "local:2"]}
+
+
+def run(extra: list[str], cache: str) -> tuple[float, str]:
+    cmd = [sys.executable, "-m", "msfd_jax.cli", "sweep", *GRID, *extra]
+    env = {**__import__("os").environ, "MSFD_CACHE_DIR": cache}
+    tick = time.perf_counter()
+    out = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
+    wall = time.perf_counter() - tick
+    last = [line for line in out.stdout.splitlines() if "collisions in" in line]
+    return wall, (last[-1] if last else out.stderr[-300:])
+
+
+def main() -> None:
+    rows = []
+    with tempfile.TemporaryDirectory() as cache:
+        for name, extra in CONFIGS.items():
+            cold, _ = run(extra, cache)
+            warm, summary = run(extra, cache)
+            rows.append((name, cold, warm, summary))
+            print(f"{name}: cold {cold:.1f} s, warm {warm:.1f} s; {summary}", flush=True)
+    date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    lines = [
+        "# 1024 paper-mesh collisions with plain `msfd sweep` (issue 11, goal 2: <= 30 s)",
+        "",
+        f"`python benchmarks/sweep_1024.py` · {date} · 2 cores",
+        "",
+        f"Grid: `msfd sweep {' '.join(GRID)}`",
+        "",
+        "| configuration | first process (compiles) s | second process (cache) s | summary |",
+        "|---|---:|---:|---|",
+    ]
+    lines += [f"| {n} | {c:.1f} | {w:.1f} | {s} |" for n, c, w, s in rows]
+    (RESULTS / "sweep_1024.md").write_text("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
