@@ -103,8 +103,14 @@ class Chain(eqx.Module):
             nodes = [*nodes, n - 1]
         return nodes
 
-    def joint_angles(self, x: Float[Array, "nodes 2"]) -> Float[Array, " joints"]:
-        """Relative angle of outgoing to incoming bar at every joint (Eq. 7), radians."""
+    def joint_angles(
+        self, x: Float[Array, "nodes 2"], atan2=jnp.arctan2
+    ) -> Float[Array, " joints"]:
+        """Relative angle of outgoing to incoming bar at every joint (Eq. 7), radians.
+
+        `atan2`: the function used (the batched core passes its vectorisable one, so that its
+        reference angles are computed exactly as its angles during the run).
+        """
         bars = x[1:] - x[:-1]
         incoming, outgoing = [bars[:-1]], [bars[1:]]
         if self.start == "symmetric":
@@ -123,7 +129,7 @@ class Chain(eqx.Module):
         b = jnp.concatenate(outgoing)
         cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
         dot = jnp.sum(a * b, axis=-1)
-        return jnp.arctan2(cross, dot)
+        return atan2(cross, dot)
 
     def axial_strain(self, x: Float[Array, "nodes 2"]) -> Float[Array, " bars"]:
         """Engineering strain of every bar, (l - l0)/l0 (Eq. 3)."""

@@ -27,7 +27,7 @@ from jaxtyping import Array, Float
 from ._flat import FlatScene, PairLayout
 from ._laws import contact_energy, contact_spring, elastic_plastic
 from ._results import RESULTS
-from ._safe import safe_norm
+from ._safe import atan2, safe_norm
 
 _MIRROR = np.array([1.0, -1.0])[None, :, None]  # diag(1, -1) acting on (n, 2, B) vectors
 
@@ -142,7 +142,7 @@ def _chain_response(flat: FlatScene, c, x, rotation_p, strain_p):
     ax, ay, bx, by = a[:, 0], a[:, 1], b[:, 0], b[:, 1]
     sl_j = slice(c.joint, c.joint + c.n_joints)
     k, w = flat.joint_stiffness[sl_j], flat.joint_weight[sl_j]
-    angle = jnp.arctan2(ax * by - ay * bx, ax * bx + ay * by) - flat.reference_angle[sl_j]
+    angle = atan2(ax * by - ay * bx, ax * bx + ay * by) - flat.reference_angle[sl_j]
     moment, rotation1, d_rot = elastic_plastic(
         angle, rotation_p[sl_j], k, flat.plastic_moment[sl_j], ys
     )

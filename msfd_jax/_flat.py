@@ -22,6 +22,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from ._contact import NodeToNodeContact, NodeToPlaneContact
+from ._safe import atan2
 from ._scene import Scene
 
 
@@ -142,7 +143,7 @@ def _flatten_one(scene: Scene) -> FlatScene:
         k, w = c.joint_stiffness_and_weight()
         ones_b, ones_j = jnp.ones_like(l0), jnp.ones_like(k)
         per_bar.append((l0, s.axial_modulus * ones_b, s.plastic_axial * ones_b))
-        per_joint.append((k, w, s.plastic_moment * ones_j, c.joint_angles(c.reference)))
+        per_joint.append((k, w, s.plastic_moment * ones_j, c.joint_angles(c.reference, atan2)))
         ref = c.reference
         start_dir.append(ref[1] - ref[0] if c.start == "clamped" else None)
         end_dir.append(ref[-1] - ref[-2] if c.end == "clamped" else None)
