@@ -17,7 +17,7 @@ def safe_norm(v, axis=-1):
 
 # Cephes' atan (S. L. Moshier, atan.c): range reduction to |x| <= tan(pi/8) and a rational
 # approximation, <= 2 ulp from libm's atan2 over 2e6 random pairs and <= 1 ulp at joint angles
-# (measured: benchmarks/results/core.md). XLA:CPU calls libm for atan2, one element at a time
+# (tests/test_engine.py). XLA:CPU calls libm for atan2, one element at a time
 # (11 ns each, not vectorised); this is plain arithmetic that XLA vectorises (issue 11).
 _ATAN_P = (
     -8.750608600031904122785e-1,

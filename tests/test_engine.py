@@ -169,3 +169,17 @@ def test_batched_forward_mode_gives_every_collision_its_own_derivative():
     fd = (f(h + e)[1] - f(h - e)[1]) / (2 * eps)
     assert float(tangent[1]) == pytest.approx(float(fd), rel=1e-3)
     assert np.all(np.asarray(value) > 0)
+
+
+def test_vectorisable_atan2_is_within_two_ulp_of_libm():
+    from msfd_jax._safe import atan2
+
+    rng = np.random.default_rng(0)
+    y = rng.normal(size=200_000) * 10.0 ** rng.uniform(-8, 3, 200_000)
+    x = rng.normal(size=200_000)
+    y = np.concatenate([y, [0.0, 1.0, -1.0, 0.0, 2.0, -2.0]])
+    x = np.concatenate([x, [0.0, 0.0, 0.0, -1.0, -3.0, -3.0]])
+    ref = np.arctan2(y, x)
+    got = np.asarray(jax.jit(atan2)(jnp.asarray(y), jnp.asarray(x)))
+    ulp = np.abs(got - ref) / np.spacing(np.maximum(np.abs(ref), np.finfo(float).tiny))
+    assert ulp.max() <= 2.0
