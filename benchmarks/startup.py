@@ -37,8 +37,9 @@ def main() -> None:
             wall = time.perf_counter() - tick
             record = json.loads(out.stdout)
             rows.append((i == 0, wall, record["wall_time_s"], record["compile_time_s"]))
-            print(f"{'cold' if i == 0 else 'warm'}: process {wall:.2f} s, run "
-                  f"{record['wall_time_s']:.3f} s, compile/load {record['compile_time_s']:.2f} s")  # fmt: skip
+            kind = "cold" if i == 0 else "warm"
+            run_s, load_s = record["wall_time_s"], record["compile_time_s"]
+            print(f"{kind}: process {wall:.2f} s, run {run_s:.3f} s, compile/load {load_s:.2f} s")
     date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     lines = [
         "# New-process `msfd run --json` (issue 11, goal 4: <= 2 s with a warm cache)",
