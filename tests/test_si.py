@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import SMALL_MESH
+from conftest import COMPARE_SMOOTHING, SMALL_MESH
 
 import msfd_jax as m
 from msfd_jax._si import DISSIPATION_KEYS, motion
@@ -141,3 +141,29 @@ def test_si_figures_and_axes_arguments(collision, tmp_path):
         "thickness_ratio = 1.5",
         "thickness_ratio = 2.5",
     ]
+
+
+def test_si_sweep_rows_equal_si_runs(tmp_path, capsys):
+    """A whole SI sweep (two beam thicknesses in metres): each row's SI columns equal run_si.
+
+    Smoothed contact, as every batched-against-single comparison (conftest: the sharp contact
+    of these thin beams amplifies the batch's rounding differences to ~1e-4 K0)."""
+    out = tmp_path / "si.csv"
+    argv = [
+        "sweep", "--si", "--beam-thickness", "0.004,0.006", *SMALL[:4], "-q",
+        "--csv", str(out), f"--contact-smoothing={COMPARE_SMOOTHING}",
+    ]  # fmt: skip
+    assert main(argv) == 0
+    table = m.SweepTable.read_csv(out)
+    assert len(table) == 2
+    for i, h in enumerate((0.004, 0.006)):
+        single = m.run_si(
+            SMALL_MESH, m.Settings(t_max=1.5), beam_thickness=h, contact_smoothing=COMPARE_SMOOTHING
+        )
+        si = single.si
+        assert table["si_beam_thickness"][i] == h
+        assert table["k0_J"][i] == pytest.approx(si["k0_J"], rel=1e-12)
+        assert table["duration_s"][i] == pytest.approx(si["duration_s"], rel=1e-9)
+        assert table["beam_bending_J"][i] == pytest.approx(
+            si["dissipated_J"]["beam_bending"], rel=1e-6, abs=1e-9 * si["k0_J"]
+        )
