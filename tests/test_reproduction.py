@@ -67,9 +67,12 @@ def test_local_contact_dissipation_small_and_independent_of_the_attached_mass(ta
     # stiffer contact: 0.0930 and 0.0963 M_pr (3.5 %) on this coarse mesh, where re-contacts
     # after the collision stage also yield and depend on the mass (the paper mesh: 0.0 %
     # spread over g = 2-40, benchmarks/results/reproduce/reproduce.md); it was 0.0358 both
+    # Tolerance 8 % since issue 11 (was 5 %): the g = 20 value moves with the rounding of the
+    # coarse mesh's sharp re-contacts: 0.0962, 0.0968 and 0.0925 M_pr for v0 and v0 moved by
+    # one and two ulp (single runs; measured), and 0.0979 in the batched core's sweep.
     absolute = table["contact"] * table["k0"]
     g5, g20 = absolute[3], absolute[4]
-    assert g5 > 0.01 and g20 == pytest.approx(g5, rel=0.05)
+    assert g5 > 0.01 and g20 == pytest.approx(g5, rel=0.08)
     assert np.max(table["contact"]) < 0.05  # "a very small portion" of K0
 
 
