@@ -1,7 +1,7 @@
 """Sweeps: one compiled vmap over chunks equals single runs; grid/list expansion; CSV; CLI.
 
 Every sweep here runs the same four collisions on the small mesh with the shared short
-settings and chunk size 3 (two chunks, the second padded with two copies of its first row), so
+settings and chunk size 3 (rounded up to 8 slots of the batched core), so
 the vmapped program is compiled once for the file; the single runs reuse the program that the
 other test files compile for `SMALL_MESH` and `SHORT`.
 """
@@ -195,3 +195,23 @@ def test_line_progress_prints_each_line_and_counts_steps(capsys):
     err = capsys.readouterr().err
     assert "first line" in err and "second line" in err and "a note" in err
     assert "2/2" in err and "msfd tune" in err
+
+
+def test_more_collisions_than_slots_refill_and_equal_single_runs():
+    """10 collisions in 8 slots (chunk 3 rounds up to 8): two slots are refilled from the
+    queue as their first collisions stop; every row equals its single run."""
+    rows = [
+        dict(thickness_ratio=t, axial_constraint=a)
+        for t in (1.0, 1.5, 2.0, 2.5, 3.0)
+        for a in (0.0, 1.0)
+    ]
+    table = sweep(
+        rows, SMALL_MESH, SHORT, chunk_size=CHUNK, progress=False, contact_smoothing=SMOOTH
+    )
+    assert _sweep.LAST_TIMING["slots"] == 8 and len(table) == 10
+    for i, row in enumerate(rows):
+        single = m.run(m.CollisionParams(**row), SMALL_MESH, SHORT, contact_smoothing=SMOOTH)
+        out = single.to_json()
+        assert table["steps"][i] == out["steps"]
+        for key, value in out["fractions"].items():
+            assert table[key][i] == pytest.approx(value, rel=1e-9, abs=1e-12), (i, key)
