@@ -148,8 +148,9 @@ def sweep(
       `simulate` would take for the smallest step of the sweep (of the task, on a cluster):
       every collision's computed stability limit is evaluated first (a small vmapped
       program), so that one bound, and so one compiled program, serves all chunks.
-    - `chunk_size`: collisions per compiled call (memory is one chunk's). Under vmap a chunk
-      runs until its slowest collision has stopped.
+    - `chunk_size`: slots of the batched core (rounded up to a power of two, at least 8):
+      collisions that run together, each stopped slot refilled from the queue (memory is one
+      batch of slots). With `shard`, collisions per sharded chunk.
     - `progress`: a progress bar on stderr (tqdm; off by default, on in the CLI).
     - `shard`: split each chunk across all JAX devices with `jax.shard_map` (each device runs
       its own stopping loop); `chunk_size` must then be a multiple of the device count.
