@@ -206,6 +206,7 @@ def _slot_count(n: int, slots: int) -> int:
     """
     return max(8, 1 << max(0, (min(n, slots) - 1).bit_length()))
 
+
 def solve_batch(
     params: CollisionParams,
     mesh: Mesh,
