@@ -101,32 +101,21 @@ class Response(eqx.Module):
     bending: Array
     axial: Array
     contact: Array
-    elastic: Array
 
 
 def _pad(a, before, after):
     return jnp.pad(a, ((before, after),) + ((0, 0),) * (a.ndim - 1))
 
 
-def _chain_response(flat: FlatScene, c, x, rotation_p, strain_p):
-    """One chain's springs at x: (forces (n, 2, B), new plastic parts, dissipation, elastic)."""
-    n = c.n_nodes
-    xc = x[c.node : c.node + n]
-    bars = xc[1:] - xc[:-1]  # (n-1, 2, B)
-    ys = flat.yield_smoothing[None]  # (1, B): the laws see arrays of one rank
-    sl_b = slice(c.bar, c.bar + n - 1)
-    l0, kappa = flat.rest_length[sl_b], flat.axial_modulus[sl_b]
-    length = safe_norm(bars, axis=1)
-    strain = (length - l0) / l0
-    axial_force, strain1, d_axial = elastic_plastic(
-        strain, strain_p[sl_b], kappa, flat.plastic_axial[sl_b], ys
-    )
-    safe_length = jnp.where(length > 0, length, 1.0)
-    grad_bar = (axial_force / safe_length)[:, None] * bars  # dU/d(bar)
-    elastic = 0.5 * jnp.sum(l0 * axial_force**2 / kappa, axis=0)
-    axial = jnp.sum(l0 * d_axial, axis=0)
-    if c.n_joints == 0:
-        return _nodal(grad_bar), rotation_p[c.joint : c.joint], strain1, 0.0, axial, elastic
+def _bars(x, c):
+    """One chain's bar vectors (n-1, 2, B) and lengths (n-1, B)."""
+    xc = x[c.node : c.node + c.n_nodes]
+    bars = xc[1:] - xc[:-1]
+    return bars, safe_norm(bars, axis=1)
+
+
+def _joints(flat: FlatScene, c, bars):
+    """The joints' incoming a and outgoing b bar vectors (J_c, 2, B) and relative angles."""
     incoming, outgoing = [bars[:-1]], [bars[1:]]
     index = flat.chains.index(c)
     if c.start == "symmetric":
@@ -141,8 +130,40 @@ def _chain_response(flat: FlatScene, c, x, rotation_p, strain_p):
     a, b = jnp.concatenate(incoming), jnp.concatenate(outgoing)  # (J_c, 2, B)
     ax, ay, bx, by = a[:, 0], a[:, 1], b[:, 0], b[:, 1]
     sl_j = slice(c.joint, c.joint + c.n_joints)
-    k, w = flat.joint_stiffness[sl_j], flat.joint_weight[sl_j]
     angle = atan2(ax * by - ay * bx, ax * bx + ay * by) - flat.reference_angle[sl_j]
+    return (ax, ay, bx, by), angle
+
+
+def _yield_width(flat: FlatScene):
+    # (1, B): the laws see arrays of one rank; None: the sharp law alone (static, issue 11)
+    return flat.yield_smoothing[None] if flat.smooth_yield else None
+
+
+def _contact_width(flat: FlatScene, rank: int):
+    if not flat.smooth_contact:
+        return None
+    return jnp.reshape(flat.contact_smoothing, (1,) * rank + flat.contact_smoothing.shape)
+
+
+def _chain_response(flat: FlatScene, c, x, rotation_p, strain_p):
+    """One chain's springs at x: (forces (n, 2, B), new plastic parts, dissipation)."""
+    n = c.n_nodes
+    bars, length = _bars(x, c)
+    ys = _yield_width(flat)
+    sl_b = slice(c.bar, c.bar + n - 1)
+    l0, kappa = flat.rest_length[sl_b], flat.axial_modulus[sl_b]
+    strain = (length - l0) / l0
+    axial_force, strain1, d_axial = elastic_plastic(
+        strain, strain_p[sl_b], kappa, flat.plastic_axial[sl_b], ys
+    )
+    safe_length = jnp.where(length > 0, length, 1.0)
+    grad_bar = (axial_force / safe_length)[:, None] * bars  # dU/d(bar)
+    axial = jnp.sum(l0 * d_axial, axis=0)
+    if c.n_joints == 0:
+        return _nodal(grad_bar), rotation_p[c.joint : c.joint], strain1, 0.0, axial
+    (ax, ay, bx, by), angle = _joints(flat, c, bars)
+    sl_j = slice(c.joint, c.joint + c.n_joints)
+    k, w = flat.joint_stiffness[sl_j], flat.joint_weight[sl_j]
     moment, rotation1, d_rot = elastic_plastic(
         angle, rotation_p[sl_j], k, flat.plastic_moment[sl_j], ys
     )
@@ -159,9 +180,8 @@ def _chain_response(flat: FlatScene, c, x, rotation_p, strain_p):
         grad_bar = grad_bar + _pad(grad_b[:1], 0, n - 2)
     if c.end == "clamped":
         grad_bar = grad_bar + _pad(grad_a[-1:], n - 2, 0)
-    elastic = elastic + 0.5 * jnp.sum(w * moment**2 / k, axis=0)
     bending = jnp.sum(w * d_rot, axis=0)
-    return _nodal(grad_bar), rotation1, strain1, bending, axial, elastic
+    return _nodal(grad_bar), rotation1, strain1, bending, axial
 
 
 def _nodal(grad_bar):
@@ -169,49 +189,60 @@ def _nodal(grad_bar):
     return _pad(grad_bar, 0, 1) - _pad(grad_bar, 1, 0)
 
 
+def _approach(flat: FlatScene, p, x, gap):
+    """A contact set's approaches delta (pairs..., B), and for node-to-node pairs the
+    separation (dx, dy) and its length (the double where keeps reverse mode finite at 0)."""
+    xa = x[p.a : p.a + p.n_a]
+    if not isinstance(p, PairLayout):
+        return xa[:, 1] + gap[None], None
+    xb = x[p.b : p.b + p.n_b]
+    dx = xa[:, None, 0] - xb[None, :, 0]  # (n_a, n_b, B): the batch stays the minor axis
+    dy = xa[:, None, 1] - xb[None, :, 1]
+    sq = dx * dx + dy * dy
+    apart = sq > 0
+    dist = jnp.where(apart, jnp.sqrt(jnp.where(apart, sq, 1.0)), 0.0)
+    return gap[None, None] - dist, (dx, dy, dist, apart)
+
+
+def _contact_forces(p, f, geometry, n_nodes):
+    """Nodal forces (N, 2, B) of one contact set's pair forces f."""
+    if geometry is None:  # node to plane: the plane pushes along -y
+        fa = jnp.stack([jnp.zeros_like(f), -f], axis=1)
+        return _pad(fa, p.a, n_nodes - p.a - p.n_a)
+    dx, dy, dist, apart = geometry
+    c = jnp.where(apart, f / jnp.where(apart, dist, 1.0), 0.0)
+    fx, fy = c * dx, c * dy
+    fa = jnp.stack([jnp.sum(fx, axis=1), jnp.sum(fy, axis=1)], axis=1)
+    fb = -jnp.stack([jnp.sum(fx, axis=0), jnp.sum(fy, axis=0)], axis=1)
+    return _pad(fa, p.a, n_nodes - p.a - p.n_a) + _pad(fb, p.b, n_nodes - p.b - p.n_b)
+
+
 def respond(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> Response:
-    """Return-map every spring at `x` and assemble the nodal forces in closed form (Eq. 10)."""
+    """Return-map every spring at `x` and assemble the nodal forces in closed form (Eq. 10).
+
+    The elastic energy is not computed here (the step does not need it): `elastic_energy`
+    evaluates it from the state once per diffrax step.
+    """
     forces, rot, strain, bend, axial = [], [], [], [], []
-    elastic = 0.0
     for c in flat.chains:
-        f, r1, s1, b, a, e = _chain_response(flat, c, x, rotation_p, strain_p)
+        f, r1, s1, b, a = _chain_response(flat, c, x, rotation_p, strain_p)
         forces.append(f)
         rot.append(r1)
         strain.append(s1)
         bend.append(jnp.broadcast_to(b, x.shape[-1:]))
         axial.append(a)
-        elastic = elastic + e
     force = jnp.concatenate(forces)
     n_nodes = force.shape[0]
     new_set, pair_force, dissipated = [], [], []
     for p, gap, k, fy, ps in zip(
         flat.pairs, flat.gap, flat.stiffness, flat.yield_force, permanent_set, strict=True
     ):
-        xa = x[p.a : p.a + p.n_a]
-        if isinstance(p, PairLayout):
-            xb = x[p.b : p.b + p.n_b]
-            d = xa[:, None] - xb[None]  # (n_a, n_b, 2, B)
-            dist = safe_norm(d, axis=2)
-            delta = gap[None, None] - dist
-            cs = flat.contact_smoothing[None, None]
-        else:
-            delta = xa[:, 1] + gap[None]
-            cs = flat.contact_smoothing[None]
-        f, ps1, dc = contact_spring(delta, ps, k, fy, cs)
-        if isinstance(p, PairLayout):
-            safe = jnp.where(dist > 0, dist, 1.0)
-            along = (jnp.where(dist > 0, f / safe, 0.0))[:, :, None] * d
-            fa, fb = jnp.sum(along, axis=1), -jnp.sum(along, axis=0)
-            force = force + _pad(fa, p.a, n_nodes - p.a - p.n_a)
-            force = force + _pad(fb, p.b, n_nodes - p.b - p.n_b)
-        else:
-            fa = jnp.stack([jnp.zeros_like(f), -f], axis=1)
-            force = force + _pad(fa, p.a, n_nodes - p.a - p.n_a)
-        pairs = tuple(range(f.ndim - 1))
-        elastic = elastic + jnp.sum(contact_energy(delta, ps1, k, cs), axis=pairs)
+        delta, geometry = _approach(flat, p, x, gap)
+        f, ps1, dc = contact_spring(delta, ps, k, fy, _contact_width(flat, delta.ndim - 1))
+        force = force + _contact_forces(p, f, geometry, n_nodes)
         new_set.append(ps1)
         pair_force.append(f)
-        dissipated.append(jnp.sum(dc, axis=pairs))
+        dissipated.append(jnp.sum(dc, axis=tuple(range(f.ndim - 1))))
     batch = x.shape[-1:]
     return Response(
         force,
@@ -222,8 +253,34 @@ def respond(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> Response
         jnp.stack(bend),
         jnp.stack(axial),
         jnp.stack(dissipated) if dissipated else jnp.zeros((1, *batch)),
-        jnp.broadcast_to(elastic, batch),
     )
+
+
+def elastic_energy(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> Float[Array, " B"]:
+    """Elastic energy stored at `x` with the plastic parts after the return mapping.
+
+    The mapped force is k (q - q_p) for the sharp and the smoothed law alike, so the energy
+    is sum k (q - q_p)^2 / 2 (bars l0 kappa (eps - eps_p)^2 / 2, joints w c (theta - theta_p)^2
+    / 2) plus the contact springs' k ramp_energy(delta - delta_p).
+    """
+    energy = jnp.zeros(x.shape[-1:])
+    for c in flat.chains:
+        bars, length = _bars(x, c)
+        sl_b = slice(c.bar, c.bar + c.n_nodes - 1)
+        l0 = flat.rest_length[sl_b]
+        strain = (length - l0) / l0 - strain_p[sl_b]
+        energy = energy + 0.5 * jnp.sum(l0 * flat.axial_modulus[sl_b] * strain**2, axis=0)
+        if c.n_joints:
+            _, angle = _joints(flat, c, bars)
+            sl_j = slice(c.joint, c.joint + c.n_joints)
+            k, w = flat.joint_stiffness[sl_j], flat.joint_weight[sl_j]
+            energy = energy + 0.5 * jnp.sum(w * k * (angle - rotation_p[sl_j]) ** 2, axis=0)
+    for p, gap, k, ps in zip(flat.pairs, flat.gap, flat.stiffness, permanent_set, strict=True):
+        delta, _ = _approach(flat, p, x, gap)
+        pairs = tuple(range(delta.ndim - 1))
+        width = _contact_width(flat, len(pairs))
+        energy = energy + jnp.sum(contact_energy(delta, ps, k, width), axis=pairs)
+    return energy
 
 
 def pair_forces(flat: FlatScene, x, permanent_set) -> tuple[Array, ...]:
@@ -237,15 +294,8 @@ def pair_forces(flat: FlatScene, x, permanent_set) -> tuple[Array, ...]:
     for p, gap, k, fy, ps in zip(
         flat.pairs, flat.gap, flat.stiffness, flat.yield_force, permanent_set, strict=True
     ):
-        xa = x[p.a : p.a + p.n_a]
-        if isinstance(p, PairLayout):
-            xb = x[p.b : p.b + p.n_b]
-            delta = gap[None, None] - safe_norm(xa[:, None] - xb[None], axis=2)
-            cs = flat.contact_smoothing[None, None]
-        else:
-            delta = xa[:, 1] + gap[None]
-            cs = flat.contact_smoothing[None]
-        f, _, _ = contact_spring(delta, ps, k, fy, cs)
+        delta, _ = _approach(flat, p, x, gap)
+        f, _, _ = contact_spring(delta, ps, k, fy, _contact_width(flat, delta.ndim - 1))
         out.append(f)
     return tuple(out)
 
@@ -274,16 +324,20 @@ def initial_state(flat: FlatScene) -> BatchState:
     batch = flat.mass.shape[-1:]
     sets = tuple(jnp.zeros_like(k) for k in flat.stiffness)
     r = respond(flat, x, jnp.zeros((nj, *batch)), jnp.zeros((nm, *batch)), sets)
+    elastic = elastic_energy(flat, x, r.plastic_rotation, r.plastic_strain, r.permanent_set)
     z = jnp.zeros(batch)
     return BatchState(
         x, flat.v0, _accelerations(flat, r.forces), r.plastic_rotation, r.plastic_strain,
-        r.permanent_set, r.bending, r.axial, r.contact, r.elastic,
+        r.permanent_set, r.bending, r.axial, r.contact, elastic,
         _reaction(flat, r.forces), z, z, z, z, z, z, z, z,
     )  # fmt: skip
 
 
 def verlet_substep(flat: FlatScene, s: BatchState, t1, h, tolerance) -> BatchState:
-    """One velocity-Verlet step of length h (B,) with return mapping at the new positions."""
+    """One velocity-Verlet step of length h (B,) with return mapping at the new positions.
+
+    The state's elastic energy is left as it was: `advance` updates it once per diffrax step
+    (it enters only the energy balance and the stopping rule, checked there)."""
     hb = h[None, None]  # (1, 1, B) against (N, 2, B)
     v_half = s.v + 0.5 * hb * s.a
     x = s.x + hb * v_half
@@ -303,13 +357,13 @@ def verlet_substep(flat: FlatScene, s: BatchState, t1, h, tolerance) -> BatchSta
     return eqx.tree_at(
         lambda q: (
             q.x, q.v, q.a, q.plastic_rotation, q.plastic_strain, q.permanent_set, q.bending,
-            q.axial, q.contact, q.elastic, q.reaction, q.drive_work,
+            q.axial, q.contact, q.reaction, q.drive_work,
             q.last_dissipation, q.dissipation_mark, q.last_contact,
         ),
         s,
         (
             x, v1, a1, r.plastic_rotation, r.plastic_strain, r.permanent_set, bending, axial,
-            contact, r.elastic, reaction, drive_work,
+            contact, reaction, drive_work,
             jnp.where(moved, t1, s.last_dissipation), jnp.where(moved, total, s.dissipation_mark),
             jnp.where(touching, t1, s.last_contact),
         ),
@@ -336,6 +390,8 @@ def advance(flat: FlatScene, clock: Clock, s: BatchState, substeps: int, rule) -
         return verlet_substep(flat, y, t0 + (i + 1) * h, h, clock.tolerance)
 
     y = body(0, s) if substeps == 1 else jax.lax.fori_loop(0, substeps, body, s)
+    elastic = elastic_energy(flat, y.x, y.plastic_rotation, y.plastic_strain, y.permanent_set)
+    y = eqx.tree_at(lambda q: q.elastic, y, elastic)
     err = energy_error(flat, y, clock.k0)
     non_finite = ~jnp.isfinite(err)
     broken = non_finite | (jnp.abs(err) > rule.energy_guard)

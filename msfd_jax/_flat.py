@@ -65,6 +65,8 @@ class FlatScene(eqx.Module):
     chains: tuple[ChainLayout, ...] = eqx.field(static=True)
     pairs: tuple[PairLayout | PlaneLayout, ...] = eqx.field(static=True)
     drive: tuple[int, int] | None = eqx.field(static=True)  # (flat node, axis)
+    smooth_yield: bool = eqx.field(static=True)  # False: the sharp laws alone (Scene's flags)
+    smooth_contact: bool = eqx.field(static=True)
     x0: Float[Array, "N 2 B"]
     v0: Float[Array, "N 2 B"]
     mass: Float[Array, "N B"]
@@ -169,6 +171,8 @@ def _flatten_one(scene: Scene) -> FlatScene:
         chains=chains,
         pairs=pairs,
         drive=drive,
+        smooth_yield=scene.smooth_yield,
+        smooth_contact=scene.smooth_contact,
         x0=jnp.concatenate([c.reference for c in scene.chains]),
         v0=v0,
         mass=jnp.concatenate([c.mass for c in scene.chains]),

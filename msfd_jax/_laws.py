@@ -13,7 +13,12 @@ import jax.numpy as jnp
 
 
 def _excess(overshoot, scale, smoothing):
-    """max(overshoot, 0), or its softplus with width smoothing*scale (0 gives the sharp law)."""
+    """max(overshoot, 0), or its softplus with width smoothing*scale (0 gives the sharp law).
+
+    ``smoothing=None`` is the sharp law known ahead (a static choice: no softplus compiled).
+    """
+    if smoothing is None:
+        return jnp.maximum(overshoot, 0.0)
     width = smoothing * scale
     safe_width = jnp.where(width > 0, width, 1.0)
     soft = safe_width * jax.nn.softplus(overshoot / safe_width)
@@ -46,8 +51,10 @@ def elastic_plastic(deformation, plastic, stiffness, yield_force, smoothing=0.0)
 def ramp(s, width):
     """C1 ramp max(s, 0) with a quadratic onset over [0, width]; ``width = 0`` is the sharp ramp.
 
-    r(s) = 0 (s <= 0), s^2/(2w) (0 < s < w), s - w/2 (s >= w).
+    r(s) = 0 (s <= 0), s^2/(2w) (0 < s < w), s - w/2 (s >= w). ``width=None``: sharp, static.
     """
+    if width is None:
+        return jnp.maximum(s, 0.0)
     safe_w = jnp.where(width > 0, width, 1.0)
     quadratic = jnp.where(s > 0, s, 0.0) ** 2 / (2.0 * safe_w)
     smooth = jnp.where(s >= width, s - 0.5 * width, quadratic)
@@ -56,6 +63,8 @@ def ramp(s, width):
 
 def ramp_energy(s, width):
     """Integral of `ramp` from -inf to s (so the contact energy is k * ramp_energy)."""
+    if width is None:
+        return 0.5 * jnp.where(s > 0, s, 0.0) ** 2
     safe_w = jnp.where(width > 0, width, 1.0)
     pos = jnp.where(s > 0, s, 0.0)
     cubic = pos**3 / (6.0 * safe_w)
@@ -73,6 +82,8 @@ def _yield_approach(elastic_limit, width):
     smoothing widths that tuning starts from (w = 1e-2), and taking the linear branch there
     moved the permanent set backwards (negative contact dissipation, energy created).
     """
+    if width is None:
+        return elastic_limit
     linear = elastic_limit + 0.5 * width
     # double where: no NaN gradient from the sqrt where the quadratic branch is not taken
     on_onset = elastic_limit < 0.5 * width
@@ -85,7 +96,8 @@ def contact_spring(approach, permanent_set, stiffness, yield_force, width=0.0):
 
     Elastic approach s = delta - delta_p; force k r(s) (r the smoothed ramp of width `width`,
     the sharp law at 0); when the force would pass f_y the permanent set grows so that it equals
-    f_y; no force once delta falls below the set (separation, Fig. 9).
+    f_y; no force once delta falls below the set (separation, Fig. 9). ``width=None`` is the
+    sharp law chosen statically (equal to ``width=0``, without the ramp's branches).
 
     **Returns:** (force >= 0, new_permanent_set, dissipated).
     """

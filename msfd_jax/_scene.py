@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
@@ -52,6 +53,9 @@ class Scene(eqx.Module):
     - `drive`: an optional displacement-controlled degree of freedom.
     - `yield_smoothing`: softplus width of the return mapping, fraction of the yield value.
     - `contact_smoothing`: width of the contact activation ramp, in units of R (0 = sharp).
+    - `smooth_yield`, `smooth_contact` (static): False when the width is known to be zero, so
+      the batched core compiles only the sharp law (no softplus, no ramp: issue 11); True
+      (the default) compiles the general law, exact for any width.
     """
 
     chains: tuple[Chain, ...]
@@ -60,6 +64,8 @@ class Scene(eqx.Module):
     drive: Drive | None = None
     yield_smoothing: Float[Array, ""] = eqx.field(default_factory=lambda: jnp.zeros(()))
     contact_smoothing: Float[Array, ""] = eqx.field(default_factory=lambda: jnp.zeros(()))
+    smooth_yield: bool = eqx.field(static=True, default=True)
+    smooth_contact: bool = eqx.field(static=True, default=True)
 
     def chain_index(self, name: str) -> int | None:
         for i, c in enumerate(self.chains):
@@ -86,6 +92,13 @@ def _check_types(params, mesh):
 def _smoothing(value, name):
     _check_value(name, value, 0.0, 1.0e3, True, True)
     return jnp.asarray(value, dtype=jnp.float64)
+
+
+def smoothed(value) -> bool:
+    """False only for a width known (concrete) to be zero: the sharp law can be compiled alone."""
+    if isinstance(value, jax.core.Tracer):
+        return True
+    return bool(np.any(np.asarray(value) != 0))
 
 
 def ring_chain(params: CollisionParams, mesh: Mesh, apex_y) -> Chain:
@@ -170,11 +183,14 @@ def ring_on_beam(
         mesh,
         _smoothing(contact_smoothing, "contact_smoothing"),
         _smoothing(yield_smoothing, "yield_smoothing"),
+        (smoothed(contact_smoothing), smoothed(yield_smoothing)),
     )
 
 
 @eqx.filter_jit
-def _ring_on_beam(p: CollisionParams, mesh: Mesh, contact_smoothing, yield_smoothing) -> Scene:
+def _ring_on_beam(
+    p: CollisionParams, mesh: Mesh, contact_smoothing, yield_smoothing, smooth=(True, True)
+) -> Scene:
     # compiled once per mesh: building the scene op by op costs seconds, compiled microseconds
     gap = (1.0 + p.thickness_ratio) / (2.0 * p.slenderness)
     ring = ring_chain(p, mesh, -gap)
@@ -187,6 +203,8 @@ def _ring_on_beam(p: CollisionParams, mesh: Mesh, contact_smoothing, yield_smoot
         (v_ring, jnp.zeros_like(beam.reference)),
         yield_smoothing=yield_smoothing,
         contact_smoothing=contact_smoothing,
+        smooth_contact=smooth[0],
+        smooth_yield=smooth[1],
     )
 
 
