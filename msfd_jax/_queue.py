@@ -24,7 +24,7 @@ from ._dynamics import State
 from ._engine import BatchState, initial_state, kinetic, make_clock, pair_forces
 from ._flat import FlatScene, batch_scenes
 from ._params import CollisionParams, Mesh
-from ._scene import _ring_on_beam
+from ._scene import _ring_on_beam, smoothed
 from ._simulate import Settings, Solution
 
 DEFAULT_SLOTS = 64
@@ -32,8 +32,17 @@ DEFAULT_SEGMENT = 64  # diffrax steps (x substeps Verlet steps) between refills
 
 
 def _scenes(params: CollisionParams, mesh: Mesh, smoothing) -> FlatScene:
-    scenes = jax.vmap(lambda p: _ring_on_beam(p, mesh, smoothing[0], smoothing[1]))(params)
+    """`smoothing`: (contact width, yield width, (smooth contact?, smooth yield?) static)."""
+    contact, yield_, smooth = smoothing
+    scenes = jax.vmap(lambda p: _ring_on_beam(p, mesh, contact, yield_, smooth))(params)
     return batch_scenes(scenes)
+
+
+def with_flags(smoothing) -> tuple:
+    """(contact width, yield width) as the queue's smoothing, with the static flags that let
+    the core compile the sharp laws alone where a width is known to be zero."""
+    contact, yield_ = smoothing
+    return (contact, yield_, (smoothed(contact), smoothed(yield_)))
 
 
 def _dt(dt_crit, settings: Settings):
@@ -133,6 +142,7 @@ def run_queue(
     """
     n = len(dt_critical)
     b = _slot_count(n, slots)
+    smoothing = with_flags(smoothing)
     queue = list(range(n))
     slot_row = np.full(b, -1)
     names = list(params)
@@ -226,7 +236,8 @@ def solve_batch(
     tangent in one batched pass (the collisions are independent). `dt_critical` (B,) is not
     differentiated (`critical_step`); `max_steps` bounds the diffrax steps (static).
     """
-    smoothing = (jnp.asarray(contact_smoothing, float), jnp.asarray(yield_smoothing, float))
+    smoothing = with_flags((contact_smoothing, yield_smoothing))
+    smoothing = (jnp.asarray(smoothing[0], float), jnp.asarray(smoothing[1], float), smoothing[2])
     flat = _scenes(params, mesh, smoothing)
     dt = _dt(jax.lax.stop_gradient(jnp.asarray(dt_critical, float)), settings)
     clock = make_clock(flat, dt, settings, max_steps)
