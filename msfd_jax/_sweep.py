@@ -360,9 +360,7 @@ def _sweep_settings(settings: Settings) -> Settings:
     # arrays so that filter_jit traces them (a new t_max or safety compiles nothing new)
     kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
     settings = dataclasses.replace(settings, shape_times=kept)
-    return jax.tree_util.tree_map(
-        lambda v: jnp.asarray(v, float) if isinstance(v, float | int) else v, settings
-    )
+    return jax.tree_util.tree_map(_as_float64, settings)
 
 
 def _smoothing_arrays(contact_smoothing, yield_smoothing):
@@ -478,3 +476,11 @@ def _rows(outputs: dict, solution, mesh: Mesh, wall: float) -> dict[str, np.ndar
     # a chunk runs as one batch: each collision is given an equal share of its wall time
     out["wall_time_s"] = np.full(n, wall / n)
     return out
+
+
+def _as_float64(v):
+    """A Settings number as a float64 array: numpy scalars and 0-d arrays (np.float32(0.5),
+    np.int64(2)) too, which would otherwise key a new compiled program by their dtype."""
+    if isinstance(v, jax.core.Tracer):
+        return v
+    return jnp.asarray(v, float)
