@@ -87,9 +87,11 @@ def _check_count(name: str, value: Any, minimum: int, maximum: int | None = None
     if isinstance(value, bool) or not isinstance(value, int | np.integer):
         raise TypeError(f"{name} must be an integer {allowed}, got {_show(value)}")
     if value < minimum:
-        raise ValueError(f"{name} = {value} is below what the model needs; allowed {allowed}")
+        raise ValueError(
+            f"{name} = {_show(value)} is below what the model needs; allowed {allowed}"
+        )
     if maximum is not None and value > maximum:
-        raise ValueError(f"{name} = {value} is too large; allowed {allowed}")
+        raise ValueError(f"{name} = {_show(value)} is too large; allowed {allowed}")
 
 
 def _check_scalar(name: str, value: Any):
@@ -207,7 +209,13 @@ class CollisionParams(eqx.Module):
 
 def validate(params: CollisionParams, mesh: Mesh) -> None:
     """Check the combination of parameters and mesh (what a single field cannot check)."""
-    _check_value("span_ratio", params.span_ratio, mesh.contact_region, 1.0e4, False, True)
+    try:
+        _check_value("span_ratio", params.span_ratio, mesh.contact_region, 1.0e4, False, True)
+    except ValueError as error:  # the lower bound is the mesh's: say so
+        raise ValueError(
+            f"{error} (the beam must extend past the mesh's contact region, "
+            f"contact_region = {mesh.contact_region:g})"
+        ) from None
 
 
 @dataclasses.dataclass(frozen=True)

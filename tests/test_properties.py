@@ -21,7 +21,7 @@ import hypothesis.extra.numpy as hnp
 import numpy as np
 import pytest
 from conftest import SMALL_MESH
-from hypothesis import HealthCheck, given
+from hypothesis import HealthCheck, event, given
 from hypothesis import settings as hsettings
 from hypothesis import strategies as st
 
@@ -30,7 +30,7 @@ from msfd_jax._params import _RANGES
 from msfd_jax._results import FAILED, RESULTS
 
 # One compiled program for every run here: static fields fixed, numbers dynamic.
-RUN = m.Settings(t_max=0.3, history_points=11, shape_times=(), max_steps=64)
+RUN = m.Settings(t_max=0.1, history_points=11, shape_times=(), max_steps=256)
 SUCCESS = {r.status for r in RESULTS if r not in FAILED}
 FAST = hsettings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 RUNS = hsettings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -108,6 +108,7 @@ def check_refusal(error: Exception, names) -> None:
 def check_collision(collision: m.Collision, settings: m.Settings = RUN) -> None:
     """A run that ended: a known status, and finite numbers where it reports success."""
     status = collision.status
+    event(f"ran: {status}")
     assert status in {r.status for r in RESULTS}, status
     assert collision.message, "a run must say how it ended"
     if status in SUCCESS:
@@ -127,6 +128,7 @@ def attempt(build, names):
             return build()
     except Exception as error:  # noqa: BLE001 (the property is about which exception)
         check_refusal(error, names)
+        event(f"refused: {type(error).__name__}")
         return None
 
 

@@ -27,7 +27,7 @@ from unittest import mock
 import jax
 import numpy as np
 from conftest import SMALL_MESH
-from hypothesis import HealthCheck, given
+from hypothesis import HealthCheck, event, given
 from hypothesis import settings as hsettings
 from hypothesis import strategies as st
 from test_properties import RUN
@@ -245,7 +245,9 @@ def test_msfd_run_options_run_or_exit_2_naming_the_option(drawn, files, use):
             try:
                 code, out, err = call(["run", *extra, *RUN_BASE, *argv])
             except Accepted:
+                event("accepted, not run (its own program)")
                 return
+    event(f"exit {code}")
     check_exit(code, out, err, given)
     if code == 0 and "--json" in given:
         record = json.loads(out)
@@ -286,5 +288,7 @@ def test_msfd_sweep_options_run_or_exit_2_naming_the_option(drawn, files, use):
             try:
                 code, out, err = call(["sweep", *extra, "--no-cache", "-q", *argv])
             except Accepted:
+                event("accepted (solve replaced)")
                 return
+    event(f"exit {code}")
     check_exit(code, out, err, given)

@@ -155,6 +155,19 @@ def _check_smoothing(args: argparse.Namespace) -> None:
         _check_scalar(name, getattr(args, name))
 
 
+def _check_plot(path: Path | None) -> None:
+    """Refuse a --plot file that could not be written, before the run rather than after."""
+    if path is None:
+        return
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    formats = sorted(FigureCanvasBase.get_supported_filetypes())
+    if path.suffix and path.suffix[1:].lower() not in formats:
+        raise UsageError(f"--plot {path}: unknown format {path.suffix!r}; allowed: {formats}")
+    if not path.resolve().parent.is_dir():
+        raise UsageError(f"--plot {path}: no such directory {str(path.parent)!r}")
+
+
 def _check_single(params: m.CollisionParams) -> None:
     """One collision: every group a single value (a --from-json record could hold lists)."""
     for f in dataclasses.fields(params):
@@ -198,6 +211,7 @@ def handle(args: argparse.Namespace) -> int:
     # What `ring_on_beam` would reject, checked here so that `run` only fails in the solve.
     checked(m.validate, params, mesh, si=si)
     checked(_check_single, params)
+    _check_plot(args.plot)
     checked(_check_smoothing, args)
     cache = None if args.no_cache else enable_compilation_cache()
     where = f" (compiled code is cached in {cache})" if cache else ""
