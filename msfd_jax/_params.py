@@ -58,6 +58,19 @@ def _check_value(name: str, value: Any, low: float, high: float, lo_in: bool, hi
     """Raise a ValueError naming `name` unless every element of `value` is in range."""
     if isinstance(value, jax.core.Tracer):
         return  # validated where it was concrete (the public entry points)
+    arr = _real(name, value)
+    lo_br, hi_br = ("[" if lo_in else "("), ("]" if hi_in else ")")
+    allowed = f"allowed {lo_br}{low:g}, {high:g}{hi_br}"
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{_label(name)} must be finite, got {_show(value)}; {allowed}")
+    ok = ((arr >= low) if lo_in else (arr > low)) & ((arr <= high) if hi_in else (arr < high))
+    if not np.all(ok):
+        bad = arr[~ok].ravel()[0]
+        raise ValueError(f"{_label(name)} = {bad:g} is out of range; {allowed}")
+
+
+def _real(name: str, value: Any) -> np.ndarray:
+    """`value` as a float array; a TypeError naming `name` unless it is real numbers."""
     try:  # a ragged list has no dtype: numpy raises ValueError (not naming `name`)
         kind = np.asarray(value).dtype.kind if not isinstance(value, str) else "U"
     except (TypeError, ValueError):
@@ -72,14 +85,7 @@ def _check_value(name: str, value: Any, low: float, high: float, lo_in: bool, hi
         raise TypeError(
             f"{_label(name)} must be a real number, got {type(value).__name__} {_show(value)}"
         ) from None
-    lo_br, hi_br = ("[" if lo_in else "("), ("]" if hi_in else ")")
-    allowed = f"allowed {lo_br}{low:g}, {high:g}{hi_br}"
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{_label(name)} must be finite, got {_show(value)}; {allowed}")
-    ok = ((arr >= low) if lo_in else (arr > low)) & ((arr <= high) if hi_in else (arr < high))
-    if not np.all(ok):
-        bad = arr[~ok].ravel()[0]
-        raise ValueError(f"{_label(name)} = {bad:g} is out of range; {allowed}")
+    return arr
 
 
 def _check_count(name: str, value: Any, minimum: int, maximum: int | None = None):
@@ -192,8 +198,9 @@ class CollisionParams(eqx.Module):
                         f"(or a bool), got {_show(value)}"
                     )
                 continue
-            if f.name == "span_ratio":  # its lower bound is the mesh's: see `validate`
-                _check_value(f.name, value, 0.0, 1.0e4, False, True)
+            if f.name == "span_ratio":  # its range depends on the mesh: see `validate`
+                if not isinstance(value, jax.core.Tracer):
+                    _real(f.name, value)  # but a string or None is refused here
                 continue
             _check_value(f.name, value, *_RANGES[f.name])
 

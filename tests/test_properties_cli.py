@@ -27,7 +27,7 @@ from unittest import mock
 import jax
 import numpy as np
 from conftest import SMALL_MESH
-from hypothesis import HealthCheck, event, given
+from hypothesis import HealthCheck, event, example, given
 from hypothesis import settings as hsettings
 from hypothesis import strategies as st
 from test_properties import RUN
@@ -229,6 +229,15 @@ REAL_RUN = m.run
 
 @CLI
 @given(drawn=options(RUN_OPTIONS), files=st.tuples(CASE, RECORD), use=st.sampled_from("-cj"))
+# what the properties found (each was a traceback or a message naming no option given)
+@example(drawn=[], files=({}, {"params": [], "mesh": None}), use="j")
+@example(drawn=[], files=({}, {"params": {}, "si_inputs": 1.0}), use="j")
+@example(drawn=[], files=({}, {"params": {"velocity": [1.0, 2.0]}}), use="j")
+@example(drawn=[], files=({}, {"params": {}, "settings": {"colour": 1}}), use="j")
+@example(drawn=[], files=({"output": {"json": 0}}, None), use="c")
+@example(drawn=[("--plot", "x.txt")], files=({}, None), use="-")
+@example(drawn=[("--contact-region", "3.0")], files=({}, None), use="-")
+@example(drawn=[("--beam-half-span", "0.9"), ("--si", None)], files=({}, None), use="-")
 def test_msfd_run_options_run_or_exit_2_naming_the_option(drawn, files, use):
     with tempfile.TemporaryDirectory() as tmp:
         argv, given = argv_of(drawn, tmp)
@@ -269,6 +278,14 @@ def connect(spec, *args, **kwargs):
 
 @CLI
 @given(drawn=options(SWEEP_OPTIONS), files=st.tuples(CASE, CSV), use=st.sampled_from("-cv"))
+@example(drawn=[], files=({}, ""), use="v")
+@example(drawn=[], files=({}, "velocity\n"), use="v")
+@example(drawn=[], files=({}, "velocity,mass_ratio\n1.0\n"), use="v")
+@example(drawn=[], files=({}, "velocity\nfast\n"), use="v")
+@example(drawn=[], files=({}, "colour\nred\n"), use="v")
+@example(drawn=[("--beam-half-span", "nan"), ("--mass-ratio", "nan")], files=({}, ""), use="-")
+@example(drawn=[("--velocity", "0:1:100000000000")], files=({}, ""), use="-")
+@example(drawn=[("--velocity", "0:1:2000"), ("--mass-ratio", "1:2:2000")], files=({}, ""), use="-")
 def test_msfd_sweep_options_run_or_exit_2_naming_the_option(drawn, files, use):
     with tempfile.TemporaryDirectory() as tmp:
         argv, given = argv_of(drawn, tmp)
