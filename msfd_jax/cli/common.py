@@ -79,7 +79,7 @@ def check_grid_size(axes: dict[str, list]) -> None:
     size = math.prod(len(v) for v in axes.values())
     if size > MAX_GRID:
         shape = " x ".join(f"{len(v)} ({flag})" for flag, v in axes.items() if len(v) > 1)
-        raise ValueError(f"the grid {shape} has {size:.3g} collisions; allowed <= {MAX_GRID}")
+        raise ValueError(f"the grid {shape} has {size} collisions; allowed <= {MAX_GRID}")
 
 
 def values(text: str) -> list[float]:
@@ -320,5 +320,7 @@ def name_the_option(message: str, si: bool = False) -> str:
                 return f"{message} (computed from the SI inputs {flags})"
     for field, flag in OPTION_NAMES.items():
         if message.startswith(field):
-            return f"{message} (option {flag})"
+            # a limit set by another input ("... contact_region = 3") names its option too
+            others = [f for k, f in OPTION_NAMES.items() if k != field and f" {k} = " in message]
+            return f"{message} (option{'s' if others else ''} {', '.join([flag, *others])})"
     return message
