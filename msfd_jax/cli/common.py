@@ -66,6 +66,8 @@ OPTION_NAMES = {
     "shape_times": "--shape-times",
     "contact_smoothing": "--contact-smoothing",
     "yield_smoothing": "--yield-smoothing",
+    "chunk_size": "--chunk-size",
+    "task_size": "--task-size",
 }
 
 
