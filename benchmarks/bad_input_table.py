@@ -361,6 +361,20 @@ CASES: tuple[Case, ...] = (
         "allowed",
         2,
     ),
+    # --- found by the property-based tests (tests/test_properties*.py, issue 12 item 6) ---
+    _C("P(span_ratio=None)", "span_ratio", "real number", TypeError),
+    _C("P(velocity=[1.0, [2.0]])", "velocity", "real number", TypeError),
+    _C("m.Mesh(6, 8, 2, [2.0])", "contact_region", "single value"),
+    _C("m.Mesh(10**12, 8, 2)", "ring_segments", "<= 10000"),
+    _C("m.Settings(safety=[0.5, 0.7])", "safety", "single value"),
+    _C("m.Settings(shape_times=([0.1, 0.2],))", "shape_times", "single value"),
+    _C("m.Settings(history_points=10**9)", "history_points", "<= 1000000"),
+    _C("m.Settings(substeps=10**6)", "substeps", "<= 10000"),
+    _C("run --contact-region=3", "--contact-region", "(3, 10000]", 2),
+    _C("run --si --beam-half-span=0.9", "--beam-half-span", RANGE["span_ratio"], 2),
+    _C("run --plot=figure.txt", "--plot", "allowed:", 2),
+    _C("sweep --velocity=0:1:1000000000", "--velocity", "1 <= n <= 1000000", 2),
+    _C("sweep --velocity=0.1:1:1000 --mass-ratio=1:9:1001", "--mass-ratio", "<= 1000000", 2),
     _C("bench nonsense", "nonsense", None, 2),
     _C("bench stability --only nonsense", "nonsense", "known:", 2),
 )
@@ -465,6 +479,10 @@ t_max = 1.5).
 """
 
 
+# A section written by hand after the table (the property-based tests): kept on --out.
+KEPT = "\n## Property-based tests"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, help="write the markdown here (default: stdout)")
@@ -491,7 +509,8 @@ def main(argv: list[str] | None = None) -> int:
         + "\n"
     )
     if args.out:
-        args.out.write_text(text)
+        old = args.out.read_text() if args.out.exists() else ""
+        args.out.write_text(text + (old[old.index(KEPT) :] if KEPT in old else ""))
     else:
         print(text)
     print(counts, file=sys.stderr)

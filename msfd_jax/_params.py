@@ -41,6 +41,15 @@ _DESCRIPTIONS = {
 }
 
 
+def _show(value: Any) -> str:
+    """`repr(value)` on one line (an array's repr spans several), at most 80 characters."""
+    try:
+        text = " ".join(repr(value).split())
+    except ValueError:  # an int of more than 4300 digits has no repr (sys.int_info)
+        text = f"<{type(value).__name__} too long to show>"
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
 def _label(name: str) -> str:
     return f"{name} ({_DESCRIPTIONS[name]})" if name in _DESCRIPTIONS else name
 
@@ -49,32 +58,71 @@ def _check_value(name: str, value: Any, low: float, high: float, lo_in: bool, hi
     """Raise a ValueError naming `name` unless every element of `value` is in range."""
     if isinstance(value, jax.core.Tracer):
         return  # validated where it was concrete (the public entry points)
-    kind = np.asarray(value).dtype.kind if not isinstance(value, str) else "U"
-    if isinstance(value, bool) or kind not in "iuf":  # no strings, booleans, complex, objects
-        raise TypeError(
-            f"{_label(name)} must be a real number, got {type(value).__name__} {value!r}"
-        )
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise TypeError(
-            f"{_label(name)} must be a real number, got {type(value).__name__} {value!r}"
-        ) from None
+    arr = _real(name, value)
     lo_br, hi_br = ("[" if lo_in else "("), ("]" if hi_in else ")")
     allowed = f"allowed {lo_br}{low:g}, {high:g}{hi_br}"
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{_label(name)} must be finite, got {value!r}; {allowed}")
+        raise ValueError(f"{_label(name)} must be finite, got {_show(value)}; {allowed}")
     ok = ((arr >= low) if lo_in else (arr > low)) & ((arr <= high) if hi_in else (arr < high))
     if not np.all(ok):
         bad = arr[~ok].ravel()[0]
         raise ValueError(f"{_label(name)} = {bad:g} is out of range; {allowed}")
 
 
-def _check_count(name: str, value: Any, minimum: int):
+def _real(name: str, value: Any) -> np.ndarray:
+    """`value` as a float array; a TypeError naming `name` unless it is real numbers."""
+    try:  # a ragged list has no dtype: numpy raises ValueError (not naming `name`)
+        kind = np.asarray(value).dtype.kind if not isinstance(value, str) else "U"
+    except (TypeError, ValueError):
+        kind = "O"
+    if isinstance(value, bool) or kind not in "iuf":  # no strings, booleans, complex, objects
+        raise TypeError(
+            f"{_label(name)} must be a real number, got {type(value).__name__} {_show(value)}"
+        )
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"{_label(name)} must be a real number, got {type(value).__name__} {_show(value)}"
+        ) from None
+    return arr
+
+
+def _check_count(name: str, value: Any, minimum: int, maximum: int | None = None):
+    allowed = f">= {minimum}" if maximum is None else f">= {minimum} and <= {maximum}"
     if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise TypeError(f"{name} must be an integer >= {minimum}, got {value!r}")
+        raise TypeError(f"{name} must be an integer {allowed}, got {_show(value)}")
     if value < minimum:
-        raise ValueError(f"{name} = {value} is below what the model needs; allowed >= {minimum}")
+        raise ValueError(
+            f"{name} = {_show(value)} is below what the model needs; allowed {allowed}"
+        )
+    if maximum is not None and value > maximum:
+        raise ValueError(f"{name} = {_show(value)} is too large; allowed {allowed}")
+
+
+def _check_scalar(name: str, value: Any):
+    """Raise a ValueError naming `name` unless `value` is one number (a 0-d array at most)."""
+    if isinstance(value, jax.core.Tracer):
+        return
+    try:
+        ndim = np.ndim(value)
+    except (TypeError, ValueError):  # ragged: not one number either
+        ndim = -1
+    if ndim != 0:
+        raise ValueError(f"{_label(name)} must be a single value, got {_show(value)}")
+
+
+def _check_static_number(name: str, value: Any):
+    """A number that keys the compiled program (a static field): one hashable number."""
+    _check_scalar(name, value)
+    if isinstance(value, np.ndarray | jax.Array):  # arrays are unhashable, even 0-d ones
+        raise TypeError(f"{name} must be a plain number, not an array, got {_show(value)}")
+
+
+# Largest segment count of a mesh: the paper's mesh is 15 / 20 / 5 and the refinement studies
+# go to 8x; beyond, the step (~ 1/n^2) makes a run last for ever and the dense contact arrays
+# (ring x beam nodes) outgrow memory.
+MAX_SEGMENTS = 10_000
 
 
 class Mesh(eqx.Module):
@@ -93,10 +141,11 @@ class Mesh(eqx.Module):
     contact_region: float = eqx.field(static=True, default=2.0)
 
     def __check_init__(self):
-        _check_count("ring_segments", self.ring_segments, 3)
-        _check_count("beam_contact_segments", self.beam_contact_segments, 2)
-        _check_count("beam_outer_segments", self.beam_outer_segments, 1)
+        _check_count("ring_segments", self.ring_segments, 3, MAX_SEGMENTS)
+        _check_count("beam_contact_segments", self.beam_contact_segments, 2, MAX_SEGMENTS)
+        _check_count("beam_outer_segments", self.beam_outer_segments, 1, MAX_SEGMENTS)
         _check_value("contact_region", self.contact_region, 0.0, 1.0e3, False, True)
+        _check_static_number("contact_region", self.contact_region)
 
     def refined(self, factor: int) -> Mesh:
         """The same mesh with every segment count multiplied by `factor`."""
@@ -146,11 +195,13 @@ class CollisionParams(eqx.Module):
                 ):
                     raise ValueError(
                         f"axial_constraint ({_DESCRIPTIONS[f.name]}) must be 0 or 1 "
-                        f"(or a bool), got {value!r}"
+                        f"(or a bool), got {_show(value)}"
                     )
                 continue
-            if f.name == "span_ratio":
-                continue  # checked against the mesh in `validate`
+            if f.name == "span_ratio":  # its range depends on the mesh: see `validate`
+                if not isinstance(value, jax.core.Tracer):
+                    _real(f.name, value)  # but a string or None is refused here
+                continue
             _check_value(f.name, value, *_RANGES[f.name])
 
     def as_arrays(self) -> CollisionParams:
@@ -165,7 +216,13 @@ class CollisionParams(eqx.Module):
 
 def validate(params: CollisionParams, mesh: Mesh) -> None:
     """Check the combination of parameters and mesh (what a single field cannot check)."""
-    _check_value("span_ratio", params.span_ratio, mesh.contact_region, 1.0e4, False, True)
+    try:
+        _check_value("span_ratio", params.span_ratio, mesh.contact_region, 1.0e4, False, True)
+    except ValueError as error:  # the lower bound is the mesh's: say so
+        raise ValueError(
+            f"{error} (the beam must extend past the mesh's contact region, "
+            f"contact_region = {mesh.contact_region:g})"
+        ) from None
 
 
 @dataclasses.dataclass(frozen=True)

@@ -22,7 +22,7 @@ from ._dynamics import State, critical_step
 from ._engine import BatchState, make_clock
 from ._engine import initial_state as engine_initial_state
 from ._flat import flatten
-from ._params import _check_count, _check_value
+from ._params import _check_count, _check_scalar, _check_static_number, _check_value, _show
 from ._results import (  # noqa: F401  (the former constants, re-exported)
     ENERGY_BALANCE,
     MAX_STEPS,
@@ -86,20 +86,24 @@ class Settings(eqx.Module):
         )
         for name, bounds in ranges.items():
             _check_value(name, getattr(self, name), *bounds)
+            _check_scalar(name, getattr(self, name))
         if self.dt is not None:
             _check_value("dt", self.dt, 0.0, 1.0e3, False, True)
+            _check_scalar("dt", self.dt)
         if not isinstance(self.stop_when_settled, bool):
             raise TypeError(
-                f"stop_when_settled must be True or False, got {self.stop_when_settled!r}"
+                f"stop_when_settled must be True or False, got {_show(self.stop_when_settled)}"
             )
         if not isinstance(self.shape_times, tuple):
-            raise TypeError(f"shape_times must be a tuple of times, got {self.shape_times!r}")
+            raise TypeError(f"shape_times must be a tuple of times, got {_show(self.shape_times)}")
         for t in self.shape_times:
             _check_value("shape_times", t, 0.0, 1.0e4, True, True)
-        _check_count("substeps", self.substeps, 1)
-        _check_count("history_points", self.history_points, 2)
+            _check_static_number("shape_times", t)
+        # upper bounds: beyond them a run allocates or loops for ever (they are static)
+        _check_count("substeps", self.substeps, 1, 10_000)
+        _check_count("history_points", self.history_points, 2, 1_000_000)
         if self.max_steps is not None:
-            _check_count("max_steps", self.max_steps, 1)
+            _check_count("max_steps", self.max_steps, 1, 2**40)
 
 
 class Solution(eqx.Module):
@@ -273,9 +277,15 @@ def prepare(scene: Scene, settings: Settings, adjoint=None, dt_critical=None) ->
         kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
         settings = dataclasses.replace(settings, shape_times=kept)
     # numbers as arrays, so that a new t_max or dt does not compile a new program
-    settings = jax.tree_util.tree_map(
-        lambda v: jnp.asarray(v, float) if isinstance(v, float | int) else v, settings
-    )
+    settings = jax.tree_util.tree_map(_as_float64, settings)
     if dt_critical is not None and settings.max_steps is None:
         raise ValueError("with dt_critical given, give Settings(max_steps=...) too")
     return scene, settings, max_steps_for(scene, settings), adjoint, dt_critical
+
+
+def _as_float64(v):
+    """A Settings number as a float64 array: numpy scalars and 0-d arrays (np.float32(0.5),
+    np.int64(2)) too, which would otherwise key a new compiled program by their dtype."""
+    if isinstance(v, jax.core.Tracer):
+        return v
+    return jnp.asarray(v, float)

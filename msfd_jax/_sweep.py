@@ -55,6 +55,7 @@ OUTPUTS = (
 # Histories are (history_points, ...) per collision: a sweep keeps only the final partition,
 # so by default it saves two history samples and no shapes (the outputs do not depend on them).
 SWEEP_SETTINGS = Settings(history_points=2, shape_times=())
+MAX_CHUNK = 65_536  # slots or vmapped rows per compiled call (chunks are padded to it)
 DEFAULT_CHUNK = 16  # slots: the fastest of 8, 16, 64 on one core (benchmarks/results/core.md)
 # compile and run time of the last in-process sweep (slots, segments, compile_s, run_s)
 LAST_TIMING: dict = {}
@@ -360,9 +361,7 @@ def _sweep_settings(settings: Settings) -> Settings:
     # arrays so that filter_jit traces them (a new t_max or safety compiles nothing new)
     kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
     settings = dataclasses.replace(settings, shape_times=kept)
-    return jax.tree_util.tree_map(
-        lambda v: jnp.asarray(v, float) if isinstance(v, float | int) else v, settings
-    )
+    return jax.tree_util.tree_map(_as_float64, settings)
 
 
 def _smoothing_arrays(contact_smoothing, yield_smoothing):
@@ -379,6 +378,8 @@ def _smoothing_arrays(contact_smoothing, yield_smoothing):
 def _chunking(chunk_size: int, shard: bool):
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
         raise ValueError(f"chunk_size must be an integer >= 1, got {chunk_size!r}")
+    if chunk_size > MAX_CHUNK:  # every chunk is padded to it: a huge one never finishes
+        raise ValueError(f"chunk_size = {chunk_size} is too large; allowed >= 1 and <= {MAX_CHUNK}")
     if not shard:
         return chunk_size, None
     devices = jax.devices()
@@ -478,3 +479,11 @@ def _rows(outputs: dict, solution, mesh: Mesh, wall: float) -> dict[str, np.ndar
     # a chunk runs as one batch: each collision is given an equal share of its wall time
     out["wall_time_s"] = np.full(n, wall / n)
     return out
+
+
+def _as_float64(v):
+    """A Settings number as a float64 array: numpy scalars and 0-d arrays (np.float32(0.5),
+    np.int64(2)) too, which would otherwise key a new compiled program by their dtype."""
+    if isinstance(v, jax.core.Tracer):
+        return v
+    return jnp.asarray(v, float)

@@ -115,5 +115,5 @@ def load(path: Path, parser: argparse.ArgumentParser) -> dict[str, Any]:
                     f"case file {path}: {key} is given twice ([{seen[action.dest]}], [{section}])"
                 )
             seen[action.dest] = section
-            out[action.dest] = _convert(f"[{section}] {key}", action, value)
+            out[action.dest] = _convert(f"case file {path}: [{section}] {key}", action, value)
     return out

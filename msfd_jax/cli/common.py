@@ -10,6 +10,7 @@ Exit codes: 0 success, 2 bad input (argparse or parameter validation), 3 failed 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 from collections.abc import Callable
@@ -65,7 +66,22 @@ OPTION_NAMES = {
     "shape_times": "--shape-times",
     "contact_smoothing": "--contact-smoothing",
     "yield_smoothing": "--yield-smoothing",
+    "chunk_size": "--chunk-size",
+    "task_size": "--task-size",
 }
+
+
+# Largest grid a sweep expands (and values a:b:n gives): beyond, the expansion alone exhausts
+# memory before anything runs (10^6 collisions are days of one core).
+MAX_GRID = 1_000_000
+
+
+def check_grid_size(axes: dict[str, list]) -> None:
+    """Refuse a grid (flag -> values) of more than `MAX_GRID` collisions, naming its axes."""
+    size = math.prod(len(v) for v in axes.values())
+    if size > MAX_GRID:
+        shape = " x ".join(f"{len(v)} ({flag})" for flag, v in axes.items() if len(v) > 1)
+        raise ValueError(f"the grid {shape} has {size} collisions; allowed <= {MAX_GRID}")
 
 
 def values(text: str) -> list[float]:
@@ -75,7 +91,7 @@ def values(text: str) -> list[float]:
         if ":" in text:
             low, high, count = text.split(":")
             n = int(count)
-            if n < 1:
+            if n < 1 or n > MAX_GRID:
                 raise ValueError
             return [float(v) for v in np.linspace(float(low), float(high), n)]
         out = [float(v) for v in text.split(",") if v.strip()]
@@ -84,7 +100,7 @@ def values(text: str) -> list[float]:
         return out
     except ValueError:
         raise argparse.ArgumentTypeError(
-            f"expected a:b:n (n >= 1 values), x,y,... or x; got {text!r}"
+            f"expected a:b:n (1 <= n <= {MAX_GRID} values), x,y,... or x; got {text!r}"
         ) from None
 
 
@@ -271,21 +287,42 @@ def compilation_cache_dir() -> Path:
     return Path(os.environ.get("MSFD_CACHE_DIR") or default).expanduser()
 
 
-def checked(build: Callable, *args, **kwargs):
-    """Call an input-building function, turning its validation errors into `UsageError`."""
+def checked(build: Callable, *args, si: bool = False, **kwargs):
+    """Call an input-building function, turning its validation errors into `UsageError`
+    (`si`: the collision was given in SI, so a group is named with the SI inputs it is from)."""
     try:
         return build(*args, **kwargs)
     except (ValueError, TypeError) as error:
-        raise UsageError(name_the_option(str(error))) from None
+        raise UsageError(name_the_option(str(error), si=si)) from None
 
 
 def note(text: str) -> None:
     print(f"msfd: {text}", file=sys.stderr, flush=True)
 
 
-def name_the_option(message: str) -> str:
-    """Append the CLI spelling of a parameter named in a validation message."""
+# The SI inputs each non-dimensional group is computed from (`from_si`).
+SI_SOURCES = {
+    "thickness_ratio": ("beam_thickness", "ring_thickness"),
+    "modulus_ratio": ("youngs_modulus", "yield_stress"),
+    "slenderness": ("radius", "ring_thickness"),
+    "mass_ratio": ("block_mass", "density", "width", "ring_thickness", "radius"),
+    "velocity": ("velocity", "density", "yield_stress", "ring_thickness", "radius"),
+    "span_ratio": ("beam_half_span", "radius"),
+    "width_ratio": ("beam_width", "width"),
+}
+
+
+def name_the_option(message: str, si: bool = False) -> str:
+    """Append the CLI spelling of a parameter named in a validation message (with `si`, the
+    SI options a non-dimensional group is computed from)."""
+    if si:
+        for field, sources in SI_SOURCES.items():
+            if message.startswith(field):
+                flags = ", ".join(SI[k][0] for k in sources)
+                return f"{message} (computed from the SI inputs {flags})"
     for field, flag in OPTION_NAMES.items():
         if message.startswith(field):
-            return f"{message} (option {flag})"
+            # a limit set by another input ("... contact_region = 3") names its option too
+            others = [f for k, f in OPTION_NAMES.items() if k != field and f" {k} = " in message]
+            return f"{message} (option{'s' if others else ''} {', '.join([flag, *others])})"
     return message

@@ -17,6 +17,7 @@ from typing import Any
 
 import msfd_jax as m
 
+from .._params import _check_scalar, _check_value
 from .._provenance import now, settings_from_json, versions
 from .._si import table_lines
 from .common import (
@@ -68,7 +69,40 @@ def read_record(path: Path) -> dict[str, Any]:
         raise UsageError(f"--from-json {path}: cannot read a JSON object ({error})") from None
     if not isinstance(record, dict) or "params" not in record:
         raise UsageError(f"--from-json {path}: not a record of `msfd run --json` (no params)")
+    # the parts read back: JSON objects with only the keys `msfd run --json` writes
+    known = {
+        "params": {f.name for f in dataclasses.fields(m.CollisionParams)},
+        "si_inputs": {*SI, "axial_constraint"},
+        "mesh": {f.name for f in dataclasses.fields(m.Mesh)},
+        "settings": {
+            *(f.name for f in dataclasses.fields(m.Settings)),
+            "contact_smoothing",
+            "yield_smoothing",
+        },
+    }
+    for part, keys in known.items():
+        value = record.get(part)
+        if value is None and part != "params":
+            continue
+        if not isinstance(value, dict):
+            raise UsageError(
+                f"--from-json {path}: {part} must be a JSON object, got {json.dumps(value)}"
+            )
+        unknown = sorted(set(value) - keys)
+        if unknown:
+            raise UsageError(
+                f"--from-json {path}: unknown {part} {unknown}; allowed: {', '.join(sorted(keys))}"
+            )
+    shape_times = (record.get("settings") or {}).get("shape_times", [])
+    if not isinstance(shape_times, list):
+        raise UsageError(f"--from-json {path}: settings.shape_times must be a list of times")
     return record
+
+
+def _recorded_flag(path: Path, name: str, value: Any) -> bool:
+    if isinstance(value, bool) or value in (0, 1):  # JSON true/false, or 0.0/1.0
+        return bool(value)
+    raise UsageError(f"--from-json {path}: {name} must be true, false, 0 or 1, got {value!r}")
 
 
 def json_defaults(path: Path) -> dict[str, Any]:
@@ -77,15 +111,17 @@ def json_defaults(path: Path) -> dict[str, Any]:
     out: dict[str, Any] = {}
     if record.get("si_inputs"):
         si = dict(record["si_inputs"])
-        out["axial_constraint"] = bool(si.pop("axial_constraint", True))
+        constraint = si.pop("axial_constraint", True)
+        out["axial_constraint"] = _recorded_flag(path, "axial_constraint", constraint)
         out["si"] = True
         out.update({f"si_{k}": v for k, v in si.items() if k in SI})
     else:
         params = record["params"]
         out.update({k: params[k] for k in PARAMS if k in params})
-        out["axial_constraint"] = bool(params.get("axial_constraint", 1.0))
-    out.update(record.get("mesh", {}))
-    settings = record.get("settings", {})
+        constraint = params.get("axial_constraint", 1.0)
+        out["axial_constraint"] = _recorded_flag(path, "axial_constraint", constraint)
+    out.update(record.get("mesh") or {})
+    settings = record.get("settings") or {}
     out.update(
         {
             k: settings[k]
@@ -115,9 +151,27 @@ def _settings(args: argparse.Namespace) -> m.Settings:
 
 def _check_smoothing(args: argparse.Namespace) -> None:
     for name in ("contact_smoothing", "yield_smoothing"):
-        value = getattr(args, name)
-        if not 0.0 <= value <= 1.0e3:  # also rejects nan
-            raise ValueError(f"{name} = {value:g} is out of range; allowed [0, 1000]")
+        _check_value(name, getattr(args, name), 0.0, 1.0e3, True, True)
+        _check_scalar(name, getattr(args, name))
+
+
+def _check_plot(path: Path | None) -> None:
+    """Refuse a --plot file that could not be written, before the run rather than after."""
+    if path is None:
+        return
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    formats = sorted(FigureCanvasBase.get_supported_filetypes())
+    if path.suffix and path.suffix[1:].lower() not in formats:
+        raise UsageError(f"--plot {path}: unknown format {path.suffix!r}; allowed: {formats}")
+    if not path.resolve().parent.is_dir():
+        raise UsageError(f"--plot {path}: no such directory {str(path.parent)!r}")
+
+
+def _check_single(params: m.CollisionParams) -> None:
+    """One collision: every group a single value (a --from-json record could hold lists)."""
+    for f in dataclasses.fields(params):
+        _check_scalar(f.name, getattr(params, f.name))
 
 
 def _si_inputs(args: argparse.Namespace) -> dict[str, float] | None:
@@ -151,10 +205,13 @@ def failure_record(status: str, message: str, inputs: dict[str, Any]) -> dict[st
 
 
 def handle(args: argparse.Namespace) -> int:
-    params, scales = checked(collision_from_args, args)
+    si = _si_inputs(args) is not None
+    params, scales = checked(collision_from_args, args, si=si)
     mesh, settings = checked(mesh_from_args, args), checked(_settings, args)
     # What `ring_on_beam` would reject, checked here so that `run` only fails in the solve.
-    checked(m.validate, params, mesh)
+    checked(m.validate, params, mesh, si=si)
+    checked(_check_single, params)
+    _check_plot(args.plot)
     checked(_check_smoothing, args)
     cache = None if args.no_cache else enable_compilation_cache()
     where = f" (compiled code is cached in {cache})" if cache else ""

@@ -15,6 +15,7 @@ running scheduler (docs/scaling.md). Progress on stderr unless ``-q/--quiet``.
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import math
 from pathlib import Path
@@ -103,11 +104,51 @@ def grid_from_args(args: argparse.Namespace):
 
     given = {k: getattr(args, k) for k in common.PARAMS if getattr(args, k) is not None}
     if args.from_csv is None:
+        common.check_grid_size({common.PARAMS[k][0]: v for k, v in given.items()})
         return {**given, "axial_constraint": _CONSTRAINT[args.axial_constraint]}
     if given:
         raise ValueError("--from-csv gives the collisions; do not combine it with grid values")
-    rows = SweepTable.read_csv(args.from_csv)
-    return [{k: float(rows[k][i]) for k in rows.keys() if k in INPUTS} for i in range(len(rows))]
+    return read_collisions(args.from_csv)
+
+
+def read_collisions(path: Path) -> list[dict[str, float]]:
+    """The collisions of a ``--from-csv`` table: its input columns (others, such as a sweep's
+    own outputs, are ignored), one collision per row; UsageError naming --from-csv if bad."""
+    where = f"--from-csv {path}"
+    expected = f"a header naming some of {', '.join(INPUTS)}, then one row per collision"
+    try:
+        with Path(path).open(newline="") as stream:
+            reader = csv.reader(stream)
+            lines = [(reader.line_num, row) for row in reader if row]
+    except (OSError, UnicodeDecodeError, csv.Error) as error:
+        raise common.UsageError(f"{where}: cannot read a CSV table ({error})") from None
+    if not lines:
+        raise common.UsageError(f"{where}: the table is empty; expected {expected}")
+    header = [name.strip() for name in lines[0][1]]
+    used = [name for name in header if name in INPUTS]
+    if not used:
+        raise common.UsageError(f"{where}: no input column in {header}; expected {expected}")
+    if len(set(header)) != len(header):
+        raise common.UsageError(f"{where}: a column is named twice in {header}")
+    if len(lines) == 1:
+        raise common.UsageError(f"{where}: a header but no collisions; expected {expected}")
+    rows = []
+    for number, row in lines[1:]:
+        if len(row) != len(header):
+            raise common.UsageError(
+                f"{where}: line {number} has {len(row)} fields, the header {len(header)}"
+            )
+        collision = {}
+        for name, text in zip(header, row, strict=True):
+            if name in INPUTS:
+                try:
+                    collision[name] = float(text)
+                except ValueError:
+                    raise common.UsageError(
+                        f"{where}: line {number}, {name} = {text!r} is not a number"
+                    ) from None
+        rows.append(collision)
+    return rows
 
 
 def _use_host_devices(n: int, shard: bool) -> None:
@@ -131,7 +172,8 @@ def handle(args: argparse.Namespace) -> int:
     if args.host_devices is not None:
         _use_host_devices(args.host_devices, args.shard)
     spec = common.checked(grid_from_args, args)
-    spec, si_info = common.checked(sweep_si.si_rows, args, spec)
+    si = args.si or any(getattr(args, f"si_{k}") is not None for k in common.SI)
+    spec, si_info = common.checked(sweep_si.si_rows, args, spec, si=si)
     sweep_si.check_netcdf(args)
     mesh = common.checked(common.mesh_from_args, args)
     settings = common.checked(common.settings_from_args, args)
@@ -160,7 +202,7 @@ def handle(args: argparse.Namespace) -> int:
             compile_cache=cache,
         )
     except (ValueError, TypeError) as error:  # raised before anything is compiled
-        raise common.UsageError(common.name_the_option(str(error))) from None
+        raise common.UsageError(common.name_the_option(str(error), si=si)) from None
     finally:
         if client is not None:
             _cluster.close(client)

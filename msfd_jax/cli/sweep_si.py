@@ -54,15 +54,19 @@ def si_rows(args: argparse.Namespace, spec) -> tuple[Any, list[dict[str, Any]] |
     given = {k: getattr(args, f"si_{k}") for k in common.SI if getattr(args, f"si_{k}") is not None}
     if not (args.si or given):
         return spec, None
-    if not isinstance(spec, dict) or set(spec) != {"axial_constraint"}:
+    si_flags = ", ".join(common.SI[k][0] for k in given) or "--si"
+    if not isinstance(spec, dict):
+        raise ValueError(f"{si_flags} (SI grid) cannot be combined with --from-csv")
+    if set(spec) != {"axial_constraint"}:
+        flags = ", ".join(common.PARAMS[k][0] for k in spec if k != "axial_constraint")
         raise ValueError(
-            "SI grids cannot be combined with non-dimensional groups or --from-csv; "
-            "give SI values only"
+            f"{flags} cannot be combined with an SI grid ({si_flags}); give SI values only"
         )
     axes = {k: given.get(k, [v]) for k, v in m.PAPER_SI.items()}
     if "beam_width" in given:
         axes["beam_width"] = given["beam_width"]
     axes["axial_constraint"] = _CONSTRAINT[args.axial_constraint]
+    common.check_grid_size({common.SI[k][0]: v for k, v in given.items()})
     rows, info = [], []
     for point in itertools.product(*axes.values()):
         inputs = dict(zip(axes, point, strict=True))
