@@ -24,7 +24,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ._flat import FlatScene, PairLayout
+from ._collapse_forces import collapse_pair_force, collapse_response
+from ._flat import COLLAPSE_LAYOUTS, FlatScene, PairLayout
 from ._laws import contact_energy, contact_spring, elastic_plastic
 from ._results import RESULTS
 from ._safe import atan2, safe_norm
@@ -187,6 +188,13 @@ def respond(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> Response
     for p, gap, k, fy, ps in zip(
         flat.pairs, flat.gap, flat.stiffness, flat.yield_force, permanent_set, strict=True
     ):
+        if isinstance(p, COLLAPSE_LAYOUTS):  # issue 12: only in scenes that have them
+            fc, ps1, f, dc, ec = collapse_response(flat, p, x, gap, k, fy, ps)
+            force, elastic = force + fc, elastic + ec
+            new_set.append(ps1)
+            pair_force.append(f)
+            dissipated.append(dc)
+            continue
         xa = x[p.a : p.a + p.n_a]
         if isinstance(p, PairLayout):
             xb = x[p.b : p.b + p.n_b]
@@ -237,6 +245,9 @@ def pair_forces(flat: FlatScene, x, permanent_set) -> tuple[Array, ...]:
     for p, gap, k, fy, ps in zip(
         flat.pairs, flat.gap, flat.stiffness, flat.yield_force, permanent_set, strict=True
     ):
+        if isinstance(p, COLLAPSE_LAYOUTS):
+            out.append(collapse_pair_force(flat, p, x, gap, k, fy, ps))
+            continue
         xa = x[p.a : p.a + p.n_a]
         if isinstance(p, PairLayout):
             xb = x[p.b : p.b + p.n_b]
@@ -298,7 +309,9 @@ def verlet_substep(flat: FlatScene, s: BatchState, t1, h, tolerance) -> BatchSta
     total = jnp.sum(bending, 0) + jnp.sum(axial, 0) + jnp.sum(contact, 0)
     moved = total - s.dissipation_mark > tolerance
     touching = jnp.zeros(h.shape, bool)
-    for f in r.contact_force:
+    for p, f in zip(flat.pairs, r.contact_force, strict=True):
+        if isinstance(p, COLLAPSE_LAYOUTS):
+            continue  # "apart" is ring and beam apart; a folded ring may stay closed on itself
         touching = touching | jnp.any(f > 0, axis=tuple(range(f.ndim - 1)))
     return eqx.tree_at(
         lambda q: (
