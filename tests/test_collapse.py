@@ -84,3 +84,40 @@ def test_sweep_retries_step_failures_only():
     assert np.allclose(table["safety"], 1.1)
     assert not table.failed.any()
     assert all(msg.startswith("retried with dt") for msg in table["message"])
+
+
+def test_collapse_forces_equal_the_autodiff_pullback():
+    """The core's closed-form collapse forces against jax.vjp of the per-chain reference, on a
+    ring squashed onto its block so that block-face and ring-ring pairs are closed."""
+    import jax
+    import jax.numpy as jnp
+
+    from msfd_jax import _dynamics, _engine
+    from msfd_jax._flat import flatten
+
+    scene = m.ring_on_beam(m.CollisionParams(), ON)
+    ring, beam = scene.chains
+    y_g = ring.reference[-1, 1]
+    squashed = ring.reference.at[:, 1].set(y_g + 0.1 * (ring.reference[:, 1] - y_g))
+    noise = 1e-3 * jax.random.normal(jax.random.PRNGKey(0), squashed.shape)
+    xs = (squashed + noise.at[-1].set(0.0), beam.reference)
+    rot = tuple(jnp.zeros(c.n_joints) for c in scene.chains)
+    strain = tuple(jnp.zeros(c.n_nodes - 1) for c in scene.chains)
+    sets = tuple(jnp.zeros_like(k.stiffness) for k in scene.contacts)
+    old = _dynamics.respond(scene, xs, rot, strain, sets)
+    new = _engine.respond(
+        flatten(scene),
+        jnp.concatenate(xs)[..., None],
+        jnp.concatenate(rot)[:, None],
+        jnp.concatenate(strain)[:, None],
+        tuple(s[..., None] for s in sets),
+    )
+    assert float(jnp.sum(old.contact_force[1])) > 0 and float(jnp.sum(old.contact_force[2])) > 0
+    f_old = jnp.concatenate(old.forces)
+    np.testing.assert_allclose(
+        new.forces[..., 0], f_old, rtol=1e-10, atol=1e-10 * float(jnp.max(abs(f_old)))
+    )
+    assert float(new.elastic[0]) == pytest.approx(float(old.elastic), rel=1e-12)
+    np.testing.assert_allclose(new.contact[:, 0], old.contact, rtol=1e-12, atol=1e-15)
+    for a, b in zip(new.contact_force, old.contact_force, strict=True):
+        np.testing.assert_allclose(a[..., 0], b, rtol=1e-12, atol=1e-12)
