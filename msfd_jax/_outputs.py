@@ -251,7 +251,7 @@ class Collision:
         }
         record["mesh"] = mesh_json(self.mesh)
         if self.mesh.collapse_contacts:
-            record["fractions"]["contact_collapse"] = f["contact_collapse"]
+            record["contact_collapse"] = f["contact_collapse"]  # part of fractions.contact
         if self.settings is not None:
             record["settings"] = {
                 **settings_json(self.settings),
