@@ -119,9 +119,16 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
             or "a deformation the mesh cannot follow (ring nodes slipping between beam nodes "
             "or leaving the contact region) or an extreme parameter"
         )
+        modelled = any(isinstance(k, BlockFaceContact | SelfContact) for k in scene.contacts)
         remedy = (
-            "the impact is beyond what the discrete model represents: lower the velocity or "
-            "the mass; a smaller dt does not help"
+            "the impact is beyond what the discrete model represents: "
+            + (
+                ""
+                if modelled
+                else "model the collapse (Mesh(collapse_contacts=True), CLI "
+                "--collapse-contacts) or "
+            )
+            + "lower the velocity or the mass; a smaller dt does not help"
             if collapse
             else "refine the mesh (Mesh.refined) or lower the velocity; a smaller dt rarely helps"
         )

@@ -33,7 +33,7 @@ from ._provenance import mesh_json
 from ._queue import run_queue
 from ._results import RESULTS
 from ._retry import RETRY_OUTPUTS, solve_with_retries
-from ._scene import ring_on_beam
+from ._scene import _ring_on_beam, ring_on_beam
 from ._simulate import Settings, simulate
 from ._store import match_rows, open_store
 from ._table import SweepTable
@@ -320,7 +320,7 @@ def _solve_collisions(
         return {k: np.concatenate([p[k] for p in parts]) for k in SOLVED_OUTPUTS}
     # the batched core: `chunk_size` slots refilled from the queue as collisions stop
     parts, order = [], []
-    scene = ring_on_beam(CollisionParams(), mesh)
+    scene = _layout_scene(mesh)
 
     def done(rows, solution, wall):
         outputs = fractions(solution, scene)
@@ -347,6 +347,12 @@ def _solve_collisions(
     LAST_TIMING.update(timing)
     position = np.argsort(np.concatenate(order), kind="stable")
     return {k: np.concatenate([p[k] for p in parts])[position] for k in SOLVED_OUTPUTS}
+
+
+def _layout_scene(mesh: Mesh):
+    # any scene of this mesh gives the chain names and contact kinds `diagnose` reads; unchecked,
+    # since the defaults need not be valid with every mesh (collapse contacts' check)
+    return _ring_on_beam(CollisionParams().as_arrays(), mesh, jnp.zeros(()), jnp.zeros(()))
 
 
 def step_bound(dt_critical: np.ndarray, settings: Settings) -> int:
@@ -474,7 +480,7 @@ def _rows(outputs: dict, solution, mesh: Mesh, wall: float) -> dict[str, np.ndar
     """Output columns of one chunk; `diagnose` gives each row its message."""
     n = len(solution.result)
     # `diagnose` reads only the chain names from the scene: any scene of this mesh will do
-    scene = ring_on_beam(CollisionParams(), mesh)
+    scene = _layout_scene(mesh)
     out = {k: np.asarray(outputs[k], dtype=np.float64) for k in (*FRACTION_KEYS, *KINETIC_KEYS)}
     out["energy_balance_error"] = np.asarray(outputs["energy_balance_error"], np.float64)
     for k in ("t_end", "dt", "dt_critical", "k0"):
