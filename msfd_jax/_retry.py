@@ -27,6 +27,13 @@ def _counted(part: dict, attempt: int) -> dict:
     return out
 
 
+def with_retry_columns(finished: dict) -> dict:
+    """Rows read back from a store written before issue 12: no retries, safety from dt."""
+    if not finished or "retries" in finished:
+        return finished
+    return _counted(finished, 0)
+
+
 def _prefixed(part: dict, first: np.ndarray) -> dict:
     """Messages of retried rows: the step used and the failure recovered from."""
     out = dict(part)

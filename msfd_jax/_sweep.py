@@ -32,7 +32,7 @@ from ._progress import SweepProgress as _SweepProgress
 from ._provenance import mesh_json
 from ._queue import run_queue
 from ._results import RESULTS
-from ._retry import RETRY_OUTPUTS, solve_with_retries
+from ._retry import RETRY_OUTPUTS, solve_with_retries, with_retry_columns
 from ._scene import _ring_on_beam, ring_on_beam
 from ._simulate import Settings, simulate
 from ._store import match_rows, open_store
@@ -189,7 +189,7 @@ def sweep(
             raise ValueError(f"output {str(output)!r} exists; resume it or remove it")
         if store.exists():
             store.check_meta(meta)
-            finished = store.finished()
+            finished = with_retry_columns(store.finished())  # a store older than issue 12
             found = match_rows(columns, finished, INPUTS, output)
             kept = found >= 0
             parts.append((np.flatnonzero(kept), {k: finished[k][found[kept]] for k in OUTPUTS}))
