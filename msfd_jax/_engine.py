@@ -24,7 +24,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ._flat import FlatScene, PairLayout
+from ._collapse_forces import collapse_energy, collapse_pair_force, collapse_response
+from ._flat import COLLAPSE_LAYOUTS, FlatScene, PairLayout
 from ._laws import contact_energy, contact_spring, elastic_plastic
 from ._results import RESULTS
 from ._safe import atan2, safe_norm
@@ -246,6 +247,13 @@ def respond(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> Response
     for p, gap, k, fy, ps in zip(
         flat.pairs, flat.gap, flat.stiffness, flat.yield_force, permanent_set, strict=True
     ):
+        if isinstance(p, COLLAPSE_LAYOUTS):  # issue 12: only in scenes that have them
+            fc, ps1, f, dc, _ = collapse_response(flat, p, x, gap, k, fy, ps)
+            force = force + fc
+            new_set.append(ps1)
+            pair_force.append(f)
+            dissipated.append(dc)
+            continue
         delta, geometry = _approach(flat, p, x, gap)
         f, ps1, dc = contact_spring(delta, ps, k, fy, _contact_width(flat, delta.ndim - 1))
         force = force + _contact_forces(p, f, geometry, n_nodes)
@@ -285,6 +293,9 @@ def elastic_energy(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> F
             k, w = flat.joint_stiffness[sl_j], flat.joint_weight[sl_j]
             energy = energy + 0.5 * jnp.sum(w * k * (angle - rotation_p[sl_j]) ** 2, axis=0)
     for p, gap, k, ps in zip(flat.pairs, flat.gap, flat.stiffness, permanent_set, strict=True):
+        if isinstance(p, COLLAPSE_LAYOUTS):
+            energy = energy + collapse_energy(flat, p, x, gap, k, ps)
+            continue
         delta, _ = _approach(flat, p, x, gap)
         pairs = tuple(range(delta.ndim - 1))
         width = _contact_width(flat, len(pairs))
@@ -303,6 +314,9 @@ def pair_forces(flat: FlatScene, x, permanent_set) -> tuple[Array, ...]:
     for p, gap, k, fy, ps in zip(
         flat.pairs, flat.gap, flat.stiffness, flat.yield_force, permanent_set, strict=True
     ):
+        if isinstance(p, COLLAPSE_LAYOUTS):
+            out.append(collapse_pair_force(flat, p, x, gap, k, fy, ps))
+            continue
         delta, _ = _approach(flat, p, x, gap)
         f, _, _ = contact_spring(delta, ps, k, fy, _contact_width(flat, delta.ndim - 1))
         out.append(f)
@@ -361,8 +375,10 @@ def verlet_substep(flat: FlatScene, s: BatchState, t1, h, tolerance) -> BatchSta
     total = jnp.sum(bending, 0) + jnp.sum(axial, 0) + jnp.sum(contact, 0)
     moved = total - s.dissipation_mark > tolerance
     touching = jnp.zeros(h.shape, bool)
-    for f in r.contact_force:  # f >= 0: a positive total is a positive pair force
-        touching = touching | (_total(f) > 0)
+    for p, f in zip(flat.pairs, r.contact_force, strict=True):
+        if isinstance(p, COLLAPSE_LAYOUTS):
+            continue  # "apart" is ring and beam apart; a folded ring may stay closed on itself
+        touching = touching | (_total(f) > 0)  # f >= 0: a positive total is a positive force
     return eqx.tree_at(
         lambda q: (
             q.x, q.v, q.a, q.plastic_rotation, q.plastic_strain, q.permanent_set, q.bending,

@@ -21,6 +21,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from ._collapse import BlockFaceContact, SelfContact
 from ._contact import NodeToNodeContact, NodeToPlaneContact
 from ._safe import atan2
 from ._scene import Scene
@@ -55,6 +56,27 @@ class PlaneLayout(NamedTuple):
     n_a: int
 
 
+class SelfPairLayout(NamedTuple):
+    """Ring-on-ring contact (issue 12): nodes [a, a + n) against themselves, the pairs
+    i < j with j - i >= separation (`_collapse.SelfContact`); pair arrays (n, n, B)."""
+
+    a: int
+    n: int
+    separation: int
+
+
+class FacePlaneLayout(NamedTuple):
+    """Nodes [a, a + n_a) against the plane y = y[anchor], moving with node `anchor`
+    (flat index; `_collapse.BlockFaceContact`); the "gap" array holds the offset."""
+
+    a: int
+    n_a: int
+    anchor: int
+
+
+COLLAPSE_LAYOUTS = (SelfPairLayout, FacePlaneLayout)
+
+
 class FlatScene(eqx.Module):
     """The model of B collisions of one layout; every array's last axis is the batch.
 
@@ -63,7 +85,9 @@ class FlatScene(eqx.Module):
     """
 
     chains: tuple[ChainLayout, ...] = eqx.field(static=True)
-    pairs: tuple[PairLayout | PlaneLayout, ...] = eqx.field(static=True)
+    pairs: tuple[PairLayout | PlaneLayout | SelfPairLayout | FacePlaneLayout, ...] = eqx.field(
+        static=True
+    )
     drive: tuple[int, int] | None = eqx.field(static=True)  # (flat node, axis)
     smooth_yield: bool = eqx.field(static=True)  # False: the sharp laws alone (Scene's flags)
     smooth_contact: bool = eqx.field(static=True)
@@ -112,7 +136,9 @@ def layout_of(scene: Scene):
         node, bar, joint = node + c.n_nodes, bar + c.n_nodes - 1, joint + c.n_joints
     pairs = []
     for k in scene.contacts:
-        if isinstance(k, NodeToNodeContact):
+        if isinstance(k, SelfContact | BlockFaceContact):
+            pairs.append(_collapse_layout(k, chains[k.chain].node))
+        elif isinstance(k, NodeToNodeContact):
             a, b = _range(k.nodes_a, "nodes_a"), _range(k.nodes_b, "nodes_b")
             pairs.append(
                 PairLayout(chains[k.chain_a].node + a[0], a[1], chains[k.chain_b].node + b[0], b[1])
@@ -126,6 +152,14 @@ def layout_of(scene: Scene):
     if scene.drive is not None:
         drive = (chains[scene.drive.chain].node + scene.drive.node, scene.drive.axis)
     return tuple(chains), tuple(pairs), drive
+
+
+def _collapse_layout(k: SelfContact | BlockFaceContact, first: int):
+    """The layout of a collapse contact whose chain starts at flat node `first`."""
+    a, n = _range(k.nodes, "nodes")
+    if isinstance(k, SelfContact):
+        return SelfPairLayout(first + a, n, k.separation)
+    return FacePlaneLayout(first + a, n, first + k.anchor)
 
 
 def _range(nodes: tuple[int, ...], name: str) -> tuple[int, int]:
@@ -156,8 +190,10 @@ def _flatten_one(scene: Scene) -> FlatScene:
         v0 = v0.at[drive].set(scene.drive.velocity)
     gap, stiffness, yield_force = [], [], []
     for k in scene.contacts:
-        if isinstance(k, NodeToNodeContact):
+        if isinstance(k, NodeToNodeContact | SelfContact):
             gap.append(k.gap)
+        elif isinstance(k, BlockFaceContact):
+            gap.append(k.offset)
         else:  # approach = y + offset - level: the plane's "gap" is offset - level
             gap.append(k.offset - k.level)
         stiffness.append(k.stiffness)

@@ -10,6 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._collapse import BlockFaceContact, SelfContact
 from ._params import CollisionParams, Mesh, Scales
 from ._provenance import mesh_json, settings_json, versions
 from ._results import FAILED, RESULTS
@@ -21,6 +22,13 @@ from ._simulate import (
     _simulate,
     prepare,
 )
+
+# Issue 12 item 3: a run stopped by a guard for a reason a smaller step can fix (non-finite or
+# energy balance broken with dt above STEP_CAUSE x the stability limit, `diagnose`'s test) is
+# rerun with the step halved, at most MAX_RETRIES times.
+STEP_CAUSE = 0.95
+MAX_RETRIES = 2
+RETRY_FACTOR = 0.5
 
 FRACTION_KEYS = (
     "beam_bending",
@@ -49,7 +57,9 @@ def fractions(solution: Solution, scene: Scene) -> dict[str, Any]:
     """Energy partition as fractions of K0 (arrays; batched if the solution is).
 
     Keys: ``beam_bending, beam_axial, ring_bending, ring_axial, contact, kinetic, elastic``
-    (absent structures give 0) and the kinetic split ``kinetic_ring, kinetic_block,
+    (absent structures give 0; ``contact`` is the plastic work of every contact set, and
+    ``contact_collapse`` its part in the collapse contacts of `Mesh.collapse_contacts`) and
+    the kinetic split ``kinetic_ring, kinetic_block,
     kinetic_beam`` (the ring's share excludes the block g).
     """
     k0 = solution.k0
@@ -60,6 +70,11 @@ def fractions(solution: Solution, scene: Scene) -> dict[str, Any]:
         out[f"{name}_bending"] = zeros if i is None else solution.bending[..., i] / k0
         out[f"{name}_axial"] = zeros if i is None else solution.axial[..., i] / k0
     out["contact"] = jnp.sum(solution.contact, -1) / k0
+    # the collapse contacts' share of "contact" (issue 12; 0 without them)
+    collapse = [isinstance(k, BlockFaceContact | SelfContact) for k in scene.contacts]
+    out["contact_collapse"] = (
+        jnp.sum(solution.contact[..., np.asarray(collapse)], -1) / k0 if any(collapse) else zeros
+    )
     out["kinetic"] = jnp.sum(solution.kinetic, -1) / k0
     out["elastic"] = solution.elastic / k0
     ring, beam = scene.chain_index("ring"), scene.chain_index("beam")
@@ -92,7 +107,7 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
             where.append(f"{c.name} node {int(np.argmax(bad))}")
     place = ", ".join(where) if where else "energy bookkeeping"
     ratio = dt / dt_crit
-    if ratio > 0.95:
+    if ratio > STEP_CAUSE:
         cause = (
             f"the step dt = {dt:.3g} is {ratio:.2f} x the computed stability limit {dt_crit:.3g}"
         )
@@ -104,9 +119,16 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
             or "a deformation the mesh cannot follow (ring nodes slipping between beam nodes "
             "or leaving the contact region) or an extreme parameter"
         )
+        modelled = any(isinstance(k, BlockFaceContact | SelfContact) for k in scene.contacts)
         remedy = (
-            "the impact is beyond what the discrete model represents: lower the velocity or "
-            "the mass; a smaller dt does not help"
+            "the impact is beyond what the discrete model represents: "
+            + (
+                ""
+                if modelled
+                else "model the collapse (Mesh(collapse_contacts=True), CLI "
+                "--collapse-contacts) or "
+            )
+            + "lower the velocity or the mass; a smaller dt does not help"
             if collapse
             else "refine the mesh (Mesh.refined) or lower the velocity; a smaller dt rarely helps"
         )
@@ -117,6 +139,20 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
         f"the solve {what}{detail} at tau = {t:.4g} in the {place}; likely cause: {cause}; "
         f"remedy: {remedy}"
     )
+
+
+def step_is_cause(result, dt, dt_critical):
+    """True (elementwise) where a smaller step can fix the failure: non-finite or energy
+    balance broken with dt above `STEP_CAUSE` x the stability limit (`diagnose`'s cause)."""
+    failed = np.isin(np.asarray(result), (RESULTS.non_finite, RESULTS.energy_balance_broken))
+    return failed & (np.asarray(dt) > STEP_CAUSE * np.asarray(dt_critical))
+
+
+def smaller_step(settings: Settings) -> Settings:
+    """`settings` with the step multiplied by `RETRY_FACTOR` (safety, or the fixed dt)."""
+    if settings.dt is None:
+        return dataclasses.replace(settings, safety=settings.safety * RETRY_FACTOR)
+    return dataclasses.replace(settings, dt=settings.dt * RETRY_FACTOR)
 
 
 def _degenerate(sol: Solution, scene: Scene) -> str | None:
@@ -162,6 +198,8 @@ class Collision:
     yield_smoothing: float = 0.0
     scales: Scales | None = None
     si_inputs: dict[str, float] | None = None
+    retries: int = 0
+    retried_after: str | None = None
 
     @property
     def fractions(self) -> dict[str, float]:
@@ -176,8 +214,19 @@ class Collision:
         return RESULTS(int(self.solution.result)).status
 
     @property
+    def safety(self) -> float:
+        """The step used over the stability limit, dt / dt_crit (after any retries)."""
+        return float(self.solution.dt) / float(self.solution.dt_critical)
+
+    @property
     def message(self) -> str:
-        return diagnose(self.solution, self.scene)
+        text = diagnose(self.solution, self.scene)
+        if not self.retries:
+            return text
+        return (
+            f"retried with dt = {float(self.solution.dt):.3g} ({self.safety:.3g} x the stability "
+            f"limit, {self.retries} retries) after: {self.retried_after}; then {text}"
+        )
 
     @property
     def si(self) -> dict[str, Any] | None:
@@ -197,6 +246,9 @@ class Collision:
             "dt_critical": float(self.solution.dt_critical),
             "k0": float(self.solution.k0),
             "status": self.status,
+            "message": self.message,
+            "retries": self.retries,
+            "safety": self.safety,
             "wall_time_s": self.wall_time_s,
             "compile_time_s": self.compile_time_s,
             "params": {
@@ -205,6 +257,8 @@ class Collision:
             },
         }
         record["mesh"] = mesh_json(self.mesh)
+        if self.mesh.collapse_contacts:
+            record["contact_collapse"] = f["contact_collapse"]  # part of fractions.contact
         if self.settings is not None:
             record["settings"] = {
                 **settings_json(self.settings),
@@ -235,7 +289,10 @@ def run(
 
     Raises `SimulationError` (with `diagnose`'s message and the failed `Collision`) when the
     run went non-finite, broke its energy balance or hit the step bound, unless
-    ``check=False``. With `scales` (from `from_si`, or use `run_si`) the result also has the
+    ``check=False``. A run stopped for a reason a smaller step can fix (`step_is_cause`) is
+    first rerun with the step halved, at most `MAX_RETRIES` times (issue 12); the result
+    records `retries`, the step used and, in its message, the failure it recovered from.
+    With `scales` (from `from_si`, or use `run_si`) the result also has the
     SI design quantities (`Collision.si`); `si_inputs` are recorded in its JSON.
     """
     for name, value, kind in (
@@ -260,14 +317,15 @@ def run(
     if scales is not None and not isinstance(scales, Scales):
         raise TypeError(f"scales must be a msfd_jax.Scales (from from_si), got {scales!r}")
     solved = settings if scales is None else motion_settings(settings)
-    # compile (or load from the cache) first, then run: the two are timed apart (issue 11)
-    start = time.perf_counter()
-    args = prepare(scene, solved)
-    compiled = _simulate.lower(*args).compile()
-    compile_s = time.perf_counter() - start
-    start = time.perf_counter()
-    solution = jax.block_until_ready(compiled(*args))
-    wall = time.perf_counter() - start
+    solution, wall, compile_s = _solve_timed(scene, solved)
+    retries, first = 0, None
+    while retries < MAX_RETRIES and step_is_cause(
+        solution.result, solution.dt, solution.dt_critical
+    ):
+        first = first or diagnose(solution, scene)
+        solved, retries = smaller_step(solved), retries + 1
+        solution, wall, more = _solve_timed(scene, solved)
+        compile_s += more
     collision = Collision(
         params,
         mesh,
@@ -280,10 +338,24 @@ def run(
         yield_smoothing=float(yield_smoothing),
         scales=scales,
         si_inputs=si_inputs,
+        retries=retries,
+        retried_after=first,
     )
     if check and int(solution.result) in FAILED:
         raise SimulationError(collision.message, collision)
     return collision
+
+
+def _solve_timed(scene: Scene, settings: Settings):
+    """(solution, run seconds, compile seconds): compiled (or loaded from the cache) first,
+    then run, so the two are timed apart (issue 11)."""
+    start = time.perf_counter()
+    args = prepare(scene, settings)
+    compiled = _simulate.lower(*args).compile()
+    compile_s = time.perf_counter() - start
+    start = time.perf_counter()
+    solution = jax.block_until_ready(compiled(*args))
+    return solution, time.perf_counter() - start, compile_s
 
 
 def run_si(

@@ -133,12 +133,18 @@ class Mesh(eqx.Module):
     - `beam_contact_segments`: equal segments over the possible contact region OC (paper: 20).
     - `beam_outer_segments`: equal segments over CE (paper: 25 - 20 = 5).
     - `contact_region`: length of OC in units of R (paper: 2).
+    - `collapse_contacts`: also build the contacts of a ring that collapses (issue 12): ring
+      nodes against the rigid block's face and ring against ring for non-adjacent nodes
+      (`msfd_jax._collapse`). Off (the paper's model) by default; a scene without them
+      compiles none of their code. Part of the mesh because it is part of the discrete model
+      every run and sweep of this mesh uses (and it is static, like the node counts).
     """
 
     ring_segments: int = eqx.field(static=True, default=15)
     beam_contact_segments: int = eqx.field(static=True, default=20)
     beam_outer_segments: int = eqx.field(static=True, default=5)
     contact_region: float = eqx.field(static=True, default=2.0)
+    collapse_contacts: bool = eqx.field(static=True, default=False)
 
     def __check_init__(self):
         _check_count("ring_segments", self.ring_segments, 3, MAX_SEGMENTS)
@@ -146,6 +152,10 @@ class Mesh(eqx.Module):
         _check_count("beam_outer_segments", self.beam_outer_segments, 1, MAX_SEGMENTS)
         _check_value("contact_region", self.contact_region, 0.0, 1.0e3, False, True)
         _check_static_number("contact_region", self.contact_region)
+        if not isinstance(self.collapse_contacts, bool):
+            raise TypeError(
+                f"collapse_contacts must be True or False, got {self.collapse_contacts!r}"
+            )
 
     def refined(self, factor: int) -> Mesh:
         """The same mesh with every segment count multiplied by `factor`."""
@@ -154,6 +164,7 @@ class Mesh(eqx.Module):
             self.beam_contact_segments * factor,
             self.beam_outer_segments * factor,
             self.contact_region,
+            self.collapse_contacts,
         )
 
 
@@ -223,6 +234,40 @@ def validate(params: CollisionParams, mesh: Mesh) -> None:
             f"{error} (the beam must extend past the mesh's contact region, "
             f"contact_region = {mesh.contact_region:g})"
         ) from None
+    if mesh.collapse_contacts:
+        _check_collapse(params.slenderness, mesh.ring_segments)
+
+
+def _check_collapse(slenderness, ring_segments: int) -> None:
+    """Where ring-on-ring node-to-node contact can represent a fold (issue 12, docs/model.md).
+
+    The self-contact gap is the ring thickness h_r/R = 1/slenderness and the pairs are nodes
+    two or more apart. Two conditions on the chord s = 2 sin(pi/(4n)) between ring nodes:
+    s < 2 h_r/R (else a node of one wall slips between two nodes of the other, unresisted)
+    and 2 s cos(pi/(4n)) > h_r/R (nodes two apart start apart, so no pair is closed at rest).
+    """
+    if isinstance(slenderness, jax.core.Tracer):
+        return
+    n = ring_segments
+    chord = 2.0 * math.sin(math.pi / (4 * n))
+    gap = 1.0 / np.asarray(slenderness, dtype=float)
+    thin = np.max(1.0 / gap)
+    if chord >= 2.0 / thin:
+        need = math.floor(math.pi / (4.0 * math.asin(1.0 / thin))) + 1
+        raise ValueError(
+            f"slenderness (R/h_r) = {thin:g} with ring_segments = {n}: with collapse_contacts "
+            f"the ring node spacing {chord:.3g} R must stay below twice the ring thickness "
+            f"(2 h_r/R = {2.0 / thin:.3g}), or a node slips between two nodes of the other "
+            f"wall; use ring_segments >= {need} or collapse_contacts=False"
+        )
+    thick = np.min(1.0 / gap)
+    if 2.0 * math.sin(math.pi / (2 * n)) <= 1.0 / thick:
+        raise ValueError(
+            f"slenderness (R/h_r) = {thick:g} with ring_segments = {n}: with collapse_contacts "
+            f"ring nodes two apart ({2.0 * math.sin(math.pi / (2 * n)):.3g} R) must start "
+            f"farther apart than the ring thickness h_r/R = {1.0 / thick:.3g}; use fewer ring "
+            "segments or collapse_contacts=False"
+        )
 
 
 @dataclasses.dataclass(frozen=True)

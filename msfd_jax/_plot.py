@@ -168,7 +168,7 @@ def plot_contact_force(collision: Collision, ax=None, *, si: bool | None = None)
     u = _units(collision, si)
     sol = collision.solution
     keep = _finished(collision)
-    force = u["f"] * np.asarray(sol.history["contact_force"])[keep].sum(-1)
+    force = u["f"] * np.asarray(sol.history["contact_force"])[keep][:, 0]
     ts = u["t"] * np.asarray(sol.ts)[keep]
     ax.plot(ts, force, color="k", lw=1.0)
     ax.set_xlim(0.0, ts[-1])

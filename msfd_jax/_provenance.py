@@ -62,7 +62,12 @@ def _fields(module) -> dict[str, Any]:
 
 
 def mesh_json(mesh: Mesh) -> dict[str, Any]:
-    return _fields(mesh)
+    # collapse_contacts (issue 12) is recorded only when on: records of the paper's model,
+    # and the sweeps' stores holding them, stay as they were
+    out = _fields(mesh)
+    if not out.get("collapse_contacts"):
+        out.pop("collapse_contacts", None)
+    return out
 
 
 def settings_json(settings) -> dict[str, Any]:

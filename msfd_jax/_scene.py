@@ -21,6 +21,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ._chain import Chain, lumped_masses, rectangular_section
+from ._collapse import collapse_contacts
 from ._contact import (
     AbstractContact,
     NodeToNodeContact,
@@ -174,7 +175,9 @@ def ring_on_beam(
     """The paper's collision: the quarter ring flies at v0 onto the half beam (Sect. 2, 3).
 
     At tau = 0 the surfaces just touch at S-O (gap (h_r + h_b)/(2R)); every ring node moves at
-    v0 towards the beam (+y) and the beam is at rest (Eq. 24).
+    v0 towards the beam (+y) and the beam is at rest (Eq. 24). With `mesh.collapse_contacts`
+    the scene also has the ring-block and ring-ring contacts of a collapse (`_collapse`),
+    after the ring-beam contact (which stays contact set 0).
     """
     _check_types(params, mesh)
     validate(params, mesh)
@@ -195,11 +198,13 @@ def _ring_on_beam(
     gap = (1.0 + p.thickness_ratio) / (2.0 * p.slenderness)
     ring = ring_chain(p, mesh, -gap)
     beam = beam_chain(p, mesh)
-    contact = _ring_beam_contact(p, mesh, ring, beam, gap)
+    contacts = (_ring_beam_contact(p, mesh, ring, beam, gap),)
+    if mesh.collapse_contacts:
+        contacts = contacts + collapse_contacts(p, mesh, ring)
     v_ring = jnp.zeros_like(ring.reference).at[:, 1].set(p.velocity) * ring.free
     return Scene(
         (ring, beam),
-        (contact,),
+        contacts,
         (v_ring, jnp.zeros_like(beam.reference)),
         yield_smoothing=yield_smoothing,
         contact_smoothing=contact_smoothing,

@@ -121,7 +121,7 @@ def design_quantities(collision, scales: Scales) -> dict[str, Any]:
     ts = np.asarray(sol.ts, float)
     t_end = float(sol.t_end)
     force = np.asarray(sol.history["contact_force"], float)
-    force = force.reshape(len(ts), -1).sum(-1)
+    force = force.reshape(len(ts), -1)[:, 0]  # set 0 is ring on beam (not collapse contacts)
     force_keep = (ts <= t_end + 1e-12) & np.isfinite(force)
     peak_force = float(force[force_keep].max()) if force_keep.any() else float("nan")
     moved = motion(collision)

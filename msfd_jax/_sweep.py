@@ -29,16 +29,18 @@ from ._dynamics import critical_step
 from ._outputs import FRACTION_KEYS, diagnose, fractions
 from ._params import CollisionParams, Mesh, validate
 from ._progress import SweepProgress as _SweepProgress
+from ._provenance import mesh_json
 from ._queue import run_queue
 from ._results import RESULTS
-from ._scene import ring_on_beam
+from ._retry import RETRY_OUTPUTS, solve_with_retries, with_retry_columns
+from ._scene import _ring_on_beam, ring_on_beam
 from ._simulate import Settings, simulate
 from ._store import match_rows, open_store
 from ._table import SweepTable
 
 INPUTS = tuple(f.name for f in dataclasses.fields(CollisionParams))
 KINETIC_KEYS = ("kinetic_ring", "kinetic_block", "kinetic_beam")
-OUTPUTS = (
+SOLVED_OUTPUTS = (
     *FRACTION_KEYS,
     *KINETIC_KEYS,
     "energy_balance_error",
@@ -52,6 +54,7 @@ OUTPUTS = (
     "message",
     "wall_time_s",
 )
+OUTPUTS = (*SOLVED_OUTPUTS, *RETRY_OUTPUTS)  # retries, safety: issue 12 (`_retry`)
 # Histories are (history_points, ...) per collision: a sweep keeps only the final partition,
 # so by default it saves two history samples and no shapes (the outputs do not depend on them).
 SWEEP_SETTINGS = Settings(history_points=2, shape_times=())
@@ -187,7 +190,7 @@ def sweep(
             raise ValueError(f"output {str(output)!r} exists; resume it or remove it")
         if store.exists():
             store.check_meta(meta)
-            finished = store.finished()
+            finished = with_retry_columns(store.finished())  # a store older than issue 12
             found = match_rows(columns, finished, INPUTS, output)
             kept = found >= 0
             parts.append((np.flatnonzero(kept), {k: finished[k][found[kept]] for k in OUTPUTS}))
@@ -241,7 +244,7 @@ def _check_sweep(columns, mesh, chunk_size, shard, contact_smoothing, yield_smoo
 def _numerics(mesh: Mesh, settings: Settings, contact: float, yield_: float) -> dict:
     """What a resumed sweep must share with the rows it keeps (`_store` checks it)."""
     return {
-        "mesh": {f.name: repr(getattr(mesh, f.name)) for f in dataclasses.fields(mesh)},
+        "mesh": {k: repr(getattr(mesh, k)) for k in mesh_json(mesh)},
         "settings": {f.name: repr(getattr(settings, f.name)) for f in dataclasses.fields(settings)},
         "contact_smoothing": repr(float(contact)),
         "yield_smoothing": repr(float(yield_)),
@@ -257,7 +260,12 @@ def _assemble(parts, n: int) -> dict[str, np.ndarray]:
     return {k: np.concatenate([np.asarray(p[1][k]) for p in parts])[order] for k in OUTPUTS}
 
 
-def solve_collisions(
+def solve_collisions(columns, mesh: Mesh = Mesh(), settings=SWEEP_SETTINGS, **kw):
+    """`_solve_collisions` with step failures solved again at a smaller step (`_retry`)."""
+    return solve_with_retries(_solve_collisions, columns, mesh, settings, **kw)
+
+
+def _solve_collisions(
     columns: Mapping[str, np.ndarray],
     mesh: Mesh = Mesh(),
     settings: Settings = SWEEP_SETTINGS,
@@ -310,10 +318,10 @@ def solve_collisions(
             parts.append(_rows(outputs, solution, mesh, time.perf_counter() - tick))
             if on_rows is not None:
                 on_rows(np.asarray(c), parts[-1])
-        return {k: np.concatenate([p[k] for p in parts]) for k in OUTPUTS}
+        return {k: np.concatenate([p[k] for p in parts]) for k in SOLVED_OUTPUTS}
     # the batched core: `chunk_size` slots refilled from the queue as collisions stop
     parts, order = [], []
-    scene = ring_on_beam(CollisionParams(), mesh)
+    scene = _layout_scene(mesh)
 
     def done(rows, solution, wall):
         outputs = fractions(solution, scene)
@@ -339,7 +347,13 @@ def solve_collisions(
     LAST_TIMING.clear()
     LAST_TIMING.update(timing)
     position = np.argsort(np.concatenate(order), kind="stable")
-    return {k: np.concatenate([p[k] for p in parts])[position] for k in OUTPUTS}
+    return {k: np.concatenate([p[k] for p in parts])[position] for k in SOLVED_OUTPUTS}
+
+
+def _layout_scene(mesh: Mesh):
+    # any scene of this mesh gives the chain names and contact kinds `diagnose` reads; unchecked,
+    # since the defaults need not be valid with every mesh (collapse contacts' check)
+    return _ring_on_beam(CollisionParams().as_arrays(), mesh, jnp.zeros(()), jnp.zeros(()))
 
 
 def step_bound(dt_critical: np.ndarray, settings: Settings) -> int:
@@ -467,7 +481,7 @@ def _rows(outputs: dict, solution, mesh: Mesh, wall: float) -> dict[str, np.ndar
     """Output columns of one chunk; `diagnose` gives each row its message."""
     n = len(solution.result)
     # `diagnose` reads only the chain names from the scene: any scene of this mesh will do
-    scene = ring_on_beam(CollisionParams(), mesh)
+    scene = _layout_scene(mesh)
     out = {k: np.asarray(outputs[k], dtype=np.float64) for k in (*FRACTION_KEYS, *KINETIC_KEYS)}
     out["energy_balance_error"] = np.asarray(outputs["energy_balance_error"], np.float64)
     for k in ("t_end", "dt", "dt_critical", "k0"):

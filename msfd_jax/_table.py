@@ -17,18 +17,19 @@ import numpy as np
 from ._results import FAILED
 
 TEXT_COLUMNS = ("status", "message")
-INTEGER_COLUMNS = ("steps", "result")
+INTEGER_COLUMNS = ("steps", "result", "retries")
 
 
 @dataclasses.dataclass
 class SweepTable:
     """One row per collision: every input (`INPUTS`) and every output (`OUTPUTS`) as columns.
 
-    `columns` maps a name to a numpy array (float64; ``steps`` and ``result`` int64; ``status``
-    and ``message`` str). `grid` holds the axes when the sweep was a full grid (rows in C
-    order: the last axis varies fastest), else None. `wall_time_s` is the whole sweep's.
-    `computed`, for a sweep that wrote its rows to a file, marks the rows this call computed
-    (the others were read back from the file by ``resume=True``); None otherwise.
+    `columns` maps a name to a numpy array (float64; ``steps``, ``result`` and ``retries``
+    int64; ``status`` and ``message`` str). `grid` holds the axes when the sweep was a full
+    grid (rows in C order: the last axis varies fastest), else None. `wall_time_s` is the
+    whole sweep's. `computed`, for a sweep that wrote its rows to a file, marks the rows
+    this call computed (the others were read back from the file by ``resume=True``); None
+    otherwise.
     """
 
     columns: dict[str, np.ndarray]

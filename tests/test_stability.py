@@ -32,6 +32,7 @@ def rows():
         "coarse_1.2",
         "coarse_1.5",
         "coarse_2.2",
+        "coarse_2.2_retried",
     )
     return {r["name"]: r for r in st.run_catalogue(names, quick=True, progress=lambda s: None)}
 
@@ -77,6 +78,14 @@ def test_estimate_is_conservative_on_the_coarse_mesh(rows):
     assert rows["coarse_1.5"]["result"] == "settled"
     assert rows["coarse_2.2"]["result"] == "energy balance broken"
     assert "the computed stability limit" in rows["coarse_2.2"]["message"]
+
+
+def test_step_failure_is_recovered_by_the_retry(rows):
+    # issue 12 item 3: the same scene with run's retry ends at 1.1 x dt_crit (one retry)
+    row = rows["coarse_2.2_retried"]
+    assert row["result"] in ("settled", "time limit") and row["verdict"] == "as expected", row
+    assert row["dt_over_dt_crit"] == pytest.approx(1.1)
+    assert row["message"].startswith("retried with dt = ") and "(1 retries)" in row["message"]
 
 
 def test_unknown_scene_is_refused():

@@ -160,6 +160,12 @@ def add_numerics_arguments(parser: argparse.ArgumentParser) -> None:
         default=mesh.contact_region,
         help="OC / R, length of the finely meshed contact region (default %(default)s)",
     )
+    group.add_argument(
+        "--collapse-contacts",
+        action="store_true",
+        help="also model a collapsing ring: ring on the block's face and ring on ring "
+        "(issue 12; default off, the paper's model)",
+    )
     group = parser.add_argument_group("numerics")
     group.add_argument(
         "--safety", type=float, default=settings.safety, help="dt / dt_crit (default %(default)s)"
@@ -226,6 +232,7 @@ def mesh_from_args(args: argparse.Namespace) -> m.Mesh:
         args.beam_contact_segments,
         args.beam_outer_segments,
         args.contact_region,
+        collapse_contacts=bool(getattr(args, "collapse_contacts", False)),
     )
 
 

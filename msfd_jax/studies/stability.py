@@ -32,7 +32,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from .._outputs import diagnose
+from .._outputs import MAX_RETRIES, diagnose, smaller_step, step_is_cause
 from .._params import CollisionParams, Mesh
 from .._results import RESULTS
 from .._scene import Scene, ring_on_beam
@@ -70,6 +70,9 @@ class StabilityScene:
       (for scenes where ending with the block still moving would be a wrong answer).
     - `float32`: run in a fresh process with x64 turned off after import.
     - `fixed_mesh`: keep `mesh` in quick form too (scenes whose point is the paper mesh).
+    - `collapse`: build the collapse contacts (`Mesh.collapse_contacts`, issue 12); the quick
+      form then has 8 ring segments (6 are refused at R/h_r = 10).
+    - `retry`: recover from a step failure as `run` does (halved step, <= 2 retries).
     """
 
     name: str
@@ -87,12 +90,16 @@ class StabilityScene:
     max_kinetic: float | None = None
     float32: bool = False
     fixed_mesh: bool = False
+    collapse: bool = False
+    retry: bool = False
 
 
 _S = StabilityScene
 _LIMIT = "the computed stability limit"  # what diagnose() says when dt is past dt_crit
 _NO_SETTLE = {"stop_when_settled": False}  # shares the long run's program
 _SLOW = {"velocity": 0.05, "mass_ratio": 1000.0}  # K0 = 1.25 M_pr, the showcase's order
+# issue 12: a step failure recovered by `run`'s retry (the step halved), paper mesh
+_RETRY_PAPER = dict(mesh=PAPER_MESH, step_factor=1.5, fixed_mesh=True, retry=True)
 CATALOGUE: tuple[StabilityScene, ...] = (
     _S("showcase", "the paper's Fig. 13 collision (reference row)"),
     _S("modulus_100", "E/Y = 100: soft material, large elastic strains", {"modulus_ratio": 100.0}),
@@ -125,6 +132,13 @@ CATALOGUE: tuple[StabilityScene, ...] = (
         step_factor=0.1,
         expect=STOPPED,
         cause="crushed",
+    ),
+    # issue 12: the same impact with the collapse contacts (ring on block face, ring on ring)
+    _S(
+        "fast_impact_collapse",
+        "v0 = 5 with collapse contacts (Mesh.collapse_contacts): the ring flattens on the block",
+        {"velocity": 5.0},
+        collapse=True,
     ),
     _S("light_block", "g = 0.1: block lighter than the ring", {"mass_ratio": 0.1}),
     _S("heavy_block", "g = 1000: block 100x the showcase", {"mass_ratio": 1000.0}),
@@ -208,6 +222,7 @@ CATALOGUE: tuple[StabilityScene, ...] = (
     ),
     # past the estimate the step is no longer a default, so only stability is asked of these
     # two (their energy errors, 3e-3 and 8e-3 K0, are those of a step 0.6-0.7x the true limit)
+    _S("over_limit_1.5_retried", "dt = 1.5 dt_crit (paper mesh) with run's retry", **_RETRY_PAPER),
     _S(
         "coarse_1.2",
         "dt = 1.2 dt_crit (coarse mesh: the estimate is conservative)",
@@ -232,6 +247,15 @@ CATALOGUE: tuple[StabilityScene, ...] = (
         expect=STOPPED,
         cause=_LIMIT,
         fixed_mesh=True,
+    ),
+    _S(
+        "coarse_2.2_retried",
+        "dt = 2.2 dt_crit (coarse mesh) with run's retry: recovered at a halved step",
+        mesh=QUICK_MESH,
+        step_factor=2.2,
+        tolerance=1e-2,  # 1.1 x the estimate: a step past it, as coarse_1.2
+        fixed_mesh=True,
+        retry=True,
     ),
 )
 BY_NAME = {s.name: s for s in CATALOGUE}
@@ -263,6 +287,10 @@ def build(entry: StabilityScene, quick: bool = False) -> tuple[Scene, Settings]:
     mesh_fields = QUICK_MESH if quick else PAPER_MESH
     if entry.mesh and (entry.fixed_mesh or not quick):
         mesh_fields = entry.mesh
+    if entry.collapse:
+        mesh_fields = {**mesh_fields, "collapse_contacts": True}
+        if quick and not entry.fixed_mesh:
+            mesh_fields["ring_segments"] = 8
     scene = ring_on_beam(CollisionParams(**entry.params), Mesh(**mesh_fields))
     if entry.contact_stiffness != 1.0:
         scene = scale_contact_stiffness(scene, entry.contact_stiffness)
@@ -290,6 +318,15 @@ def run_scene(entry: StabilityScene, quick: bool = False) -> dict[str, Any]:
     except (ValueError, TypeError) as error:
         return _row(entry, REFUSED, message=str(error), wall=time.perf_counter() - start)
     sol = jax.block_until_ready(simulate(scene, settings))
+    retries, first = 0, ""
+    while (
+        entry.retry and retries < MAX_RETRIES and step_is_cause(sol.result, sol.dt, sol.dt_critical)
+    ):
+        first = first or diagnose(sol, scene)  # the failure recovered from, as `run` says it
+        settings, retries = smaller_step(settings), retries + 1
+        sol = jax.block_until_ready(simulate(scene, settings))
+    retried = f"retried with dt = {float(sol.dt):.3g} ({retries} retries) after: {first}; then "
+    retried = retried if retries else ""
     wall = time.perf_counter() - start
     return _row(
         entry,
@@ -299,7 +336,7 @@ def run_scene(entry: StabilityScene, quick: bool = False) -> dict[str, Any]:
         error=float(sol.energy_balance_error),
         dt_ratio=float(sol.dt / sol.dt_critical),
         wall=wall,
-        message=diagnose(sol, scene),
+        message=retried + diagnose(sol, scene),
         finite=_finite(sol),
         kinetic=float(jnp.sum(sol.kinetic) / sol.k0),
         separated=float(sol.t_end - sol.final.last_contact) > float(settings.settle_window),
