@@ -17,6 +17,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from . import _export
 from ._core import chain_state, history_of, solve
 from ._dynamics import State, critical_step
 from ._engine import BatchState, make_clock
@@ -148,8 +149,8 @@ def step_size(scene: Scene, settings: Settings, dt_critical=None):
     `dt_critical`, when given, is the limit computed beforehand (a sweep computes every
     collision's first, outside its sharded program); otherwise it is computed here.
     """
-    if dt_critical is None:
-        dt_critical = _critical_step(scene)
+    if dt_critical is None:  # a stored program when the CLI has switched the store on
+        dt_critical = _export.call(_critical_step, scene, name="critical_step")
     dt_crit = jax.lax.stop_gradient(jnp.asarray(dt_critical, float))
     dt = dt_crit * settings.safety if settings.dt is None else jnp.asarray(settings.dt)
     return dt, dt_crit
