@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from typing import Any
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from ._export import compile_program
@@ -20,6 +20,7 @@ from ._simulate import (
     Settings,
     Solution,
     _simulate,
+    array_module,
     prepare,
 )
 
@@ -54,14 +55,15 @@ def fractions(solution: Solution, scene: Scene) -> dict[str, Any]:
     kinetic_beam`` (the ring's share excludes the block g).
     """
     k0 = solution.k0
+    xp = array_module(k0)  # numpy for a host copy (`Collision`): no eager jax dispatch
     out: dict[str, Any] = {}
-    zeros = jnp.zeros_like(k0)
+    zeros = xp.zeros_like(k0)
     for name in ("beam", "ring"):
         i = scene.chain_index(name)
         out[f"{name}_bending"] = zeros if i is None else solution.bending[..., i] / k0
         out[f"{name}_axial"] = zeros if i is None else solution.axial[..., i] / k0
-    out["contact"] = jnp.sum(solution.contact, -1) / k0
-    out["kinetic"] = jnp.sum(solution.kinetic, -1) / k0
+    out["contact"] = xp.sum(solution.contact, -1) / k0
+    out["kinetic"] = xp.sum(solution.kinetic, -1) / k0
     out["elastic"] = solution.elastic / k0
     ring, beam = scene.chain_index("ring"), scene.chain_index("beam")
     block = solution.kinetic_block / k0
@@ -164,13 +166,18 @@ class Collision:
     scales: Scales | None = None
     si_inputs: dict[str, float] | None = None
 
+    @functools.cached_property
+    def _host(self) -> Solution:
+        """The solution copied to host numpy arrays once (read-outs without jax dispatch)."""
+        return jax.device_get(self.solution)
+
     @property
     def fractions(self) -> dict[str, float]:
-        return {k: float(v) for k, v in fractions(self.solution, self.scene).items()}
+        return {k: float(v) for k, v in fractions(self._host, self.scene).items()}
 
     @property
     def energy_balance_error(self) -> float:
-        return float(self.solution.energy_balance_error)
+        return float(self._host.energy_balance_error)
 
     @property
     def status(self) -> str:
