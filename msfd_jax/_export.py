@@ -34,7 +34,6 @@ from typing import Any
 
 import equinox as eqx
 import jax
-import numpy as np
 
 _FORMAT = 1  # bump when the stored record's layout changes
 _store: Path | None = None
@@ -116,7 +115,7 @@ def compile_program(fn: Callable, *args, name: str) -> Program:
     key_text = _key_text(name, signature)
     if key_text is None:
         return _traced(fn, args, "a static argument has no stable repr (no key)")
-    path = _store / f"{name}-{hashlib.sha256(key_text.encode()).hexdigest()[:32]}.jaxexport"
+    path = _path(name, key_text)
     loaded = _load(path, key_text)
     if loaded is not None:
         exported, template = loaded
@@ -124,12 +123,22 @@ def compile_program(fn: Callable, *args, name: str) -> Program:
     else:
         try:
             exported, template = _export(fn, dynamic, rebuild)
+            serialized = bytes(exported.serialize())
+            # compile what a later process loads: a deserialized program lowers to another
+            # module than the fresh one, and only the same module hits the compile cache
+            exported = jax.export.deserialize(bytearray(serialized))
         except Exception as error:  # noqa: BLE001 (any export failure falls back to tracing)
             return _traced(fn, args, f"export failed: {type(error).__name__}: {error}")
-        _save(path, key_text, exported, template)
+        _save(path, key_text, serialized, template)
         source = "exported"
     compiled = jax.jit(exported.call).lower(*dynamic).compile()
     return Program(compiled, template, source)
+
+
+def _path(name: str, key_text: str) -> Path:
+    """Where the program of `name` under `key_text` is stored (the store must be on)."""
+    assert _store is not None
+    return _store / f"{name}-{hashlib.sha256(key_text.encode()).hexdigest()[:32]}.jaxexport"
 
 
 def _traced(fn: Callable, args: tuple, reason: str) -> Program:
@@ -148,8 +157,7 @@ def _dynamic(args: tuple):
         return treedef.unflatten([next(it) if a else x for x, a in pairs])
 
     statics = [None if a else x for x, a in zip(leaves, is_array, strict=True)]
-    avals = [(np.shape(x), str(np.result_type(x)), bool(getattr(x, "weak_type", False)))
-             for x in dynamic]  # fmt: skip
+    avals = [(x.shape, str(x.dtype), bool(getattr(x, "weak_type", False))) for x in dynamic]
     return dynamic, rebuild, (str(treedef), repr(statics), repr(avals))
 
 
@@ -230,9 +238,9 @@ def _load(path: Path, key_text: str):
         return None
 
 
-def _save(path: Path, key_text: str, exported, template) -> None:
+def _save(path: Path, key_text: str, serialized: bytes, template) -> None:
     """Write atomically (a temporary file renamed), so a reader never sees half a file."""
-    record = {"key": key_text, "exported": bytes(exported.serialize()), "template": template}
+    record = {"key": key_text, "exported": serialized, "template": template}
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
