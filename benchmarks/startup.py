@@ -11,7 +11,7 @@ start-up, imports and the scene's set-up. It also times the floor: new processes
 Child processes run without ``PYTHONDONTWRITEBYTECODE`` (as an installed package, whose
 byte code pip writes): otherwise every process recompiles the package's sources.
 
-    python benchmarks/startup.py [--repeats 3] [--output benchmarks/results/startup.md]
+    python benchmarks/startup.py [--repeats 3] [--against SRC]   # benchmarks/results/startup.md
 """
 
 from __future__ import annotations
@@ -50,50 +50,67 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--output", type=Path, default=RESULTS / "startup.md")
+    parser.add_argument(
+        "--against",
+        type=Path,
+        metavar="SRC",
+        help="another source tree (e.g. `git archive COMMIT | tar -x -C SRC`): its warm "
+        "runs alternate with this tree's, each with its own cache (a fair before/after)",
+    )
     args = parser.parse_args()
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    base = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    trees = {"this tree": Path(__file__).resolve().parent.parent}
+    if args.against is not None:
+        trees[f"against {args.against}"] = args.against.resolve()
     rows, floor = [], []
+    cmd = [sys.executable, "-m", "msfd_jax.cli", "run", "--json"]
     with tempfile.TemporaryDirectory() as cache:
-        env["MSFD_CACHE_DIR"] = cache
-        cmd = [sys.executable, "-m", "msfd_jax.cli", "run", "--json"]
-        for i in range(args.repeats + 1):
-            wall, cpu, stdout = timed(cmd, env)
-            record = json.loads(stdout)
-            run_s, load_s = record["wall_time_s"], record["compile_time_s"]
-            rows.append((i == 0, wall, cpu, run_s, load_s, record["steps"], record["t_end"]))
-            kind = "cold" if i == 0 else "warm"
-            print(
-                f"{kind}: process {wall:.2f} s (CPU {cpu:.2f} s), run {run_s:.3f} s, "
-                f"compile/load {load_s:.2f} s, steps {record['steps']}"
-            )
+        envs = {
+            name: {**base, "PYTHONPATH": str(src), "MSFD_CACHE_DIR": f"{cache}/{i}"}
+            for i, (name, src) in enumerate(trees.items())
+        }
+        for i in range(args.repeats + 1):  # the first is cold: it fills the cache
+            for name, env in envs.items():
+                wall, cpu, stdout = timed(cmd, env)
+                record = json.loads(stdout)
+                run_s, load_s = record["wall_time_s"], record["compile_time_s"]
+                kind = "cold" if i == 0 else "warm"
+                rows.append((name, kind, wall, cpu, run_s, load_s, record["steps"]))
+                print(
+                    f"{name}, {kind}: process {wall:.2f} s (CPU {cpu:.2f} s), run {run_s:.3f} s,"
+                    f" compile/load {load_s:.2f} s, steps {record['steps']}"
+                )
+    env = envs["this tree"]
     for name, code in FLOOR.items():
         times = [timed([sys.executable, "-c", code], env)[:2] for _ in range(args.repeats)]
         wall, cpu = min(t[0] for t in times), min(t[1] for t in times)
         floor.append((name, wall, cpu))
         print(f"floor, {name}: process {wall:.2f} s (CPU {cpu:.2f} s), best of {args.repeats}")
-    write(args.output, args.repeats, rows, floor)
+    write(args, rows, floor)
 
 
-def write(path: Path, repeats: int, rows: list, floor: list) -> None:
+def write(args: argparse.Namespace, rows: list, floor: list) -> None:
     date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     load = os.getloadavg()[0]
+    against = "" if args.against is None else f" --against {args.against}"
     lines = [
         "# New-process `msfd run --json` (issue 11, goal 4: <= 2 s with a warm cache)",
         "",
-        f"`python benchmarks/startup.py --repeats {repeats}` · {date} · load average at the "
-        f"end {load:.1f} on {os.cpu_count()} cores (CPU s = wall s on an idle core)",
+        f"`python benchmarks/startup.py --repeats {args.repeats}{against}` · {date} · load "
+        f"average at the end {load:.1f} on {os.cpu_count()} cores (CPU s = wall s on an "
+        "idle core)",
         "",
-        "| cache | process wall s | process CPU s | run s | compile or cache load s | steps |",
-        "|---|---:|---:|---:|---:|---:|",
+        "| source | cache | process wall s | process CPU s | run s | compile or load s | steps |",
+        "|---|---|---:|---:|---:|---:|---:|",
     ]
     lines += [
-        f"| {'cold' if c else 'warm'} | {w:.2f} | {u:.2f} | {r:.3f} | {k:.2f} | {s} |"
-        for c, w, u, r, k, s, _ in rows
+        f"| {n} | {k} | {w:.2f} | {u:.2f} | {r:.3f} | {c:.2f} | {s} |"
+        for n, k, w, u, r, c, s in rows
     ]
     lines += ["", "| floor (new process, best of the repeats) | wall s | CPU s |"]
     lines += ["|---|---:|---:|"]
     lines += [f"| {name} | {w:.2f} | {u:.2f} |" for name, w, u in floor]
-    path.write_text("\n".join(lines) + "\n")
+    args.output.write_text("\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":
