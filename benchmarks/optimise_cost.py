@@ -64,7 +64,8 @@ def _median(fn) -> tuple[float, float]:
 
 def _memory(jitted, *args) -> str:
     """Temporaries / arguments / outputs XLA plans for the compiled program [MB]."""
-    stats = jitted.lower(*args).compile().compiled.memory_analysis()
+    compiled = jitted.lower(*args).compile()
+    stats = getattr(compiled, "compiled", compiled).memory_analysis()  # eqx or jax jit
     if stats is None:
         return "n/a"
     return (
