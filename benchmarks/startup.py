@@ -62,11 +62,17 @@ def main() -> None:
     trees = {"this tree": Path(__file__).resolve().parent.parent}
     if args.against is not None:
         trees[f"against {args.against}"] = args.against.resolve()
+    # the environment's PYTHONPATH comes after the tree's (e.g. other package versions)
+    extra = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
     rows, floor = [], []
     cmd = [sys.executable, "-m", "msfd_jax.cli", "run", "--json"]
     with tempfile.TemporaryDirectory() as cache:
         envs = {
-            name: {**base, "PYTHONPATH": str(src), "MSFD_CACHE_DIR": f"{cache}/{i}"}
+            name: {
+                **base,
+                "PYTHONPATH": os.pathsep.join([str(src), *extra]),
+                "MSFD_CACHE_DIR": f"{cache}/{i}",
+            }  # fmt: skip
             for i, (name, src) in enumerate(trees.items())
         }
         for i in range(args.repeats + 1):  # the first is cold: it fills the cache
