@@ -23,7 +23,9 @@ callbacks, as equinox's runtime checks are under ``EQX_ON_ERROR=raise``).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
+import importlib.metadata
 import os
 import pickle
 import sys
@@ -180,18 +182,21 @@ def _key_text(name: str, signature: tuple) -> str | None:
     return repr((name, *signature, sorted(environment.items())))
 
 
+@functools.cache
 def _versions() -> dict[str, str]:
     import diffrax
     import jaxlib
 
-    import msfd_jax
-
+    try:
+        msfd = importlib.metadata.version("msfd-jax")
+    except importlib.metadata.PackageNotFoundError:  # a source tree: the source hash decides
+        msfd = "0+unknown"
     return {
         "jax": jax.__version__,
         "jaxlib": jaxlib.__version__,
         "equinox": eqx.__version__,
         "diffrax": diffrax.__version__,
-        "msfd-jax": msfd_jax.__version__,
+        "msfd-jax": msfd,
     }
 
 
