@@ -21,6 +21,7 @@ import datetime
 import json
 import os
 import resource
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -113,6 +114,16 @@ def write(args: argparse.Namespace, rows: list, floor: list) -> None:
         f"| {n} | {k} | {w:.2f} | {u:.2f} | {r:.3f} | {c:.2f} | {s} |"
         for n, k, w, u, r, c, s in rows
     ]
+    lines += [
+        "",
+        "| source | warm processes | median wall s | median CPU s |",
+        "|---|---:|---:|---:|",
+    ]
+    for name in dict.fromkeys(r[0] for r in rows):
+        warm = [r for r in rows if r[0] == name and r[1] == "warm"]
+        wall = statistics.median(r[2] for r in warm)
+        cpu = statistics.median(r[3] for r in warm)
+        lines.append(f"| {name} | {len(warm)} | {wall:.2f} | {cpu:.2f} |")
     lines += ["", "| floor (new process, best of the repeats) | wall s | CPU s |"]
     lines += ["|---|---:|---:|"]
     lines += [f"| {name} | {w:.2f} | {u:.2f} |" for name, w, u in floor]
