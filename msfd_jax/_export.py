@@ -18,6 +18,9 @@ which the persistent cache turns into a load. Anything else falls back to tracin
 same results: no store set (`enable` not called; the library's default), a key not found, a
 file that does not read back, or a program that cannot be exported (e.g. one holding host
 callbacks, as equinox's runtime checks are under ``EQX_ON_ERROR=raise``).
+
+The store is trusted as JAX's compile cache is (its records are unpickled): keep it in a
+directory only you can write, as ``~/.cache/msfd-jax`` is.
 """
 
 from __future__ import annotations
