@@ -37,10 +37,17 @@ FLOOR = {
 
 
 def timed(cmd: list[str], env: dict[str, str]) -> tuple[float, float, str]:
-    """(wall s, CPU s of the child: user + system, stdout) of one new process."""
+    """(wall s, CPU s of the child: user + system, stdout) of one new process.
+
+    The child runs in its cache directory: ``python -m``/``-c`` put the working directory
+    first on sys.path, and in the repository that would import this tree whatever
+    PYTHONPATH says.
+    """
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     tick = time.perf_counter()
-    out = subprocess.run(cmd, capture_output=True, text=True, env=env, check=True)
+    cwd = env["MSFD_CACHE_DIR"]
+    os.makedirs(cwd, exist_ok=True)
+    out = subprocess.run(cmd, capture_output=True, text=True, env=env, check=True, cwd=cwd)
     wall = time.perf_counter() - tick
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime

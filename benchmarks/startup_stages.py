@@ -7,6 +7,9 @@ Run it twice with the same ``MSFD_CACHE_DIR``: the second process is the warm on
 a source tree without `msfd_jax._export` too (``PYTHONPATH=SRC``), for a before/after.
 
     MSFD_CACHE_DIR=/tmp/c python benchmarks/startup_stages.py   # twice; the 2nd is warm
+
+(Run it as a script, not with ``-m`` from the repository: ``-m`` puts the working directory
+first on sys.path, which imports this tree whatever PYTHONPATH says.)
 """
 
 import resource
