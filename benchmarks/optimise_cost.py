@@ -19,11 +19,13 @@ w = 0.01 (the first annealing stage). Measures, after compiling:
 Success rates over starts and targets: benchmarks/tuning_success.py. Writes
 benchmarks/results/optimise.md.
 
-    python benchmarks/optimise_cost.py
+    python benchmarks/optimise_cost.py [--quick] [--batch 8]
 """
 
 from __future__ import annotations
 
+import argparse
+import dataclasses
 import platform
 import resource
 import statistics
@@ -31,11 +33,15 @@ import tempfile
 import time
 from pathlib import Path
 
+import diffrax
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 import msfd_jax as m
 import optimise as o
+from msfd_jax._queue import solve_batch
+from msfd_jax._sweep import step_bound
 from optimise._gradient import _forward, _reverse
 from optimise._problem import _evaluate, arrays, objective_value_and_grad
 
@@ -58,7 +64,8 @@ def _median(fn) -> tuple[float, float]:
 
 def _memory(jitted, *args) -> str:
     """Temporaries / arguments / outputs XLA plans for the compiled program [MB]."""
-    stats = jitted.lower(*args).compile().compiled.memory_analysis()
+    compiled = jitted.lower(*args).compile()
+    stats = getattr(compiled, "compiled", compiled).memory_analysis()  # eqx or jax jit
     if stats is None:
         return "n/a"
     return (
@@ -98,7 +105,72 @@ def _costs(problem, design, goal, checkpoints=(None,)):
     return rows, at
 
 
+def _batched(problem, first_forward: float, size: int) -> list[str]:
+    """Issue 11 goal 5: every design's derivative of a batch in one batched forward-mode pass.
+
+    `size` designs (h_b/h_r from 1 to 4, the base case otherwise, smoothed as above) through
+    `solve_batch`: the batched forward run and one `jax.jvp` with ``diffrax.ForwardMode()``
+    and a tangent of ones (each design's derivative along its own thickness), per design
+    against the single forward run of the table above.
+    """
+    h = jnp.linspace(1.0, 4.0, size)
+    base = m.CollisionParams()
+    params = m.CollisionParams(
+        **{f: jnp.full(size, float(getattr(base, f))) for f in base.__dataclass_fields__}
+    )
+    params = dataclasses.replace(params, thickness_ratio=h)
+    mesh, settings = problem.mesh, problem.settings
+    one = jax.vmap(lambda p: m.critical_step(m.ring_on_beam(p, mesh)))
+    dt_crit = jax.jit(one)(params)
+    bound = max(step_bound(np.asarray(dt_crit), settings), settings.max_steps)
+
+    def beam_share(thickness, adjoint=None):
+        p = dataclasses.replace(params, thickness_ratio=thickness)
+        out = solve_batch(p, mesh, settings, dt_crit, max_steps=bound, adjoint=adjoint, **SMOOTH)
+        return out["beam_bending"] + out["beam_axial"]
+
+    forward = jax.jit(beam_share)
+    tangents = jax.jit(
+        lambda t: jax.jvp(lambda x: beam_share(x, diffrax.ForwardMode()), (h,), (t,))
+    )
+    ones = jnp.ones(size)
+    rows = [
+        ("batched forward run", *_median(lambda: forward(h)), _memory(forward, h)),
+        ("batched jvp (each design along its own h_b/h_r)", *_median(lambda: tangents(ones)),
+         _memory(tangents, ones)),
+    ]  # fmt: skip
+    lines = [
+        f"## Batched forward mode: {size} designs in one pass (`solve_batch`, issue 11 goal 5)",
+        "",
+        f"h_b/h_r = 1 ... 4 ({size} designs), the base case otherwise, s = 0.05, w = 0.01; "
+        f"max_steps {bound}. Per design = median / {size}; x single forward = per design / "
+        "the lean single forward run's median above.",
+        "",
+        "| what | first call [s] (compiles) | median [s] | per design [s] | x single forward "
+        "| memory [MB] |",
+        "|---|---|---|---|---|---|",
+    ]
+    for what, first, med, memory in rows:
+        per = med / size
+        lines.append(
+            f"| {what} | {first:.2f} | {med:.3f} | {per:.4f} | {per / first_forward:.2f} "
+            f"| {memory} |"
+        )
+    jvp_over_forward = rows[1][2] / rows[0][2]
+    lines += ["", f"Batched jvp / batched forward: {jvp_over_forward:.2f}x.", ""]
+    return lines
+
+
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="the lean problem only (no `lean=False` rows), checkpoints log2(max_steps) and "
+        "max_steps, no tuning runs",
+    )
+    parser.add_argument("--batch", type=int, default=8, help="designs in the batched pass")
+    args = parser.parse_args()
     # a fresh persistent cache: the timed first calls compile, and lowering a program again for
     # its memory analysis then reads it from the cache instead of compiling it twice
     jax.config.update("jax_compilation_cache_dir", tempfile.mkdtemp(prefix="msfd-optimise-"))
@@ -126,12 +198,16 @@ def main() -> None:
         "",
     ]
     results = {}
-    for name, problem, checkpoints in (
+    cases = (
         ("before: histories saved (1001 samples + shapes), `make_problem(lean=False)`", full,
          (None,)),
         ("after: no histories saved, `make_problem()` (lean, the default)", lean,
          (None, 1024, steps)),
-    ):  # fmt: skip
+    )  # fmt: skip
+    if args.quick:
+        lines[2] = lines[2].replace("optimise_cost.py`", "optimise_cost.py --quick`")
+        cases = (("no histories saved, `make_problem()` (lean, the default)", lean, (None, steps)),)
+    for name, problem, checkpoints in cases:
         rows, at = _costs(problem, design, goal, checkpoints)
         results[name] = (rows, at)
         base = rows[0][2]
@@ -144,6 +220,18 @@ def main() -> None:
         for what, first, med, memory in rows:
             lines.append(f"| {what} | {first:.2f} | {med:.3f} | {med / base:.2f} | {memory} |")
         lines.append("")
+    if args.quick:
+        ((rows_lean, _),) = results.values()
+        jvp = rows_lean[1][2] / rows_lean[0][2]
+        rev = min(r[2] for r in rows_lean[2:]) / rows_lean[0][2]
+        lines += [
+            f"Issue 11 goal 5: jvp <= 2x ({jvp:.2f}x measured), reverse <= 4x ({rev:.2f}x "
+            "measured, best checkpoint count; its memory in the table).",
+            "",
+        ]
+        lines += _batched(lean, rows_lean[0][2], args.batch)
+        _finish(lines, start, OUT.with_name("optimise_goal5.md"))
+        return
     (rows_full, at_full), (rows_lean, at_lean) = results.values()
     diff = max(abs(float(at_full[k]) - float(at_lean[k])) for k in at_full)
     jvp, rev = rows_lean[1][2] / rows_lean[0][2], min(r[2] for r in rows_lean[2:]) / rows_lean[0][2]
@@ -156,6 +244,7 @@ def main() -> None:
         f"{rows_lean[1][2]:.3f} s, reverse {rows_full[2][2]:.3f} s -> "
         f"{min(r[2] for r in rows_lean[2:]):.3f} s.",
         "",
+        *_batched(lean, rows_lean[0][2], args.batch),
         "## Tuning the base case to a beam share of 0.6 K0 within 0.01 K0 (lean problem)",
         "",
         "| run | status | iterations | h_b/h_r | sharp beam share | wall [s] |",
@@ -173,13 +262,17 @@ def main() -> None:
         lines.append(
             f"| {name} | {r.status} | {r.iterations} | {h:.4f} | {beam:.4f} | {r.wall_time_s:.1f} |"
         )
+    _finish(lines, start)
+
+
+def _finish(lines: list[str], start: float, out: Path = OUT) -> None:
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     lines += [
         "",
         f"Peak resident memory of the whole benchmark process: {rss:.0f} MB; total "
         f"{time.perf_counter() - start:.0f} s.",
     ]
-    OUT.write_text("\n".join(lines) + "\n")
+    out.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
 

@@ -3,14 +3,15 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from typing import Any
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from ._collapse import BlockFaceContact, SelfContact
+from ._export import compile_program
 from ._params import CollisionParams, Mesh, Scales
 from ._provenance import mesh_json, settings_json, versions
 from ._results import FAILED, RESULTS
@@ -20,6 +21,7 @@ from ._simulate import (
     Settings,
     Solution,
     _simulate,
+    array_module,
     prepare,
 )
 
@@ -63,19 +65,20 @@ def fractions(solution: Solution, scene: Scene) -> dict[str, Any]:
     kinetic_beam`` (the ring's share excludes the block g).
     """
     k0 = solution.k0
+    xp = array_module(k0)  # numpy for a host copy (`Collision`): no eager jax dispatch
     out: dict[str, Any] = {}
-    zeros = jnp.zeros_like(k0)
+    zeros = xp.zeros_like(k0)
     for name in ("beam", "ring"):
         i = scene.chain_index(name)
         out[f"{name}_bending"] = zeros if i is None else solution.bending[..., i] / k0
         out[f"{name}_axial"] = zeros if i is None else solution.axial[..., i] / k0
-    out["contact"] = jnp.sum(solution.contact, -1) / k0
+    out["contact"] = xp.sum(solution.contact, -1) / k0
     # the collapse contacts' share of "contact" (issue 12; 0 without them)
     collapse = [isinstance(k, BlockFaceContact | SelfContact) for k in scene.contacts]
     out["contact_collapse"] = (
-        jnp.sum(solution.contact[..., np.asarray(collapse)], -1) / k0 if any(collapse) else zeros
+        xp.sum(solution.contact[..., np.asarray(collapse)], -1) / k0 if any(collapse) else zeros
     )
-    out["kinetic"] = jnp.sum(solution.kinetic, -1) / k0
+    out["kinetic"] = xp.sum(solution.kinetic, -1) / k0
     out["elastic"] = solution.elastic / k0
     ring, beam = scene.chain_index("ring"), scene.chain_index("beam")
     block = solution.kinetic_block / k0
@@ -201,13 +204,18 @@ class Collision:
     retries: int = 0
     retried_after: str | None = None
 
+    @functools.cached_property
+    def _host(self) -> Solution:
+        """The solution copied to host numpy arrays once (read-outs without jax dispatch)."""
+        return jax.device_get(self.solution)
+
     @property
     def fractions(self) -> dict[str, float]:
-        return {k: float(v) for k, v in fractions(self.solution, self.scene).items()}
+        return {k: float(v) for k, v in fractions(self._host, self.scene).items()}
 
     @property
     def energy_balance_error(self) -> float:
-        return float(self.solution.energy_balance_error)
+        return float(self._host.energy_balance_error)
 
     @property
     def status(self) -> str:
@@ -348,10 +356,11 @@ def run(
 
 def _solve_timed(scene: Scene, settings: Settings):
     """(solution, run seconds, compile seconds): compiled (or loaded from the cache) first,
-    then run, so the two are timed apart (issue 11)."""
+    then run, so the two are timed apart (issue 11); with the CLI's store on, the program is
+    a stored serialized one (no tracing)."""
     start = time.perf_counter()
     args = prepare(scene, settings)
-    compiled = _simulate.lower(*args).compile()
+    compiled = compile_program(_simulate, *args, name="simulate")
     compile_s = time.perf_counter() - start
     start = time.perf_counter()
     solution = jax.block_until_ready(compiled(*args))

@@ -20,6 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from . import _export
 from ._chain import Chain, lumped_masses, rectangular_section
 from ._collapse import collapse_contacts
 from ._contact import (
@@ -181,12 +182,14 @@ def ring_on_beam(
     """
     _check_types(params, mesh)
     validate(params, mesh)
-    return _ring_on_beam(
+    return _export.call(  # a stored program when the CLI has switched the store on
+        _ring_on_beam,
         params.as_arrays(),
         mesh,
         _smoothing(contact_smoothing, "contact_smoothing"),
         _smoothing(yield_smoothing, "yield_smoothing"),
         (smoothed(contact_smoothing), smoothed(yield_smoothing)),
+        name="ring_on_beam",
     )
 
 

@@ -15,8 +15,10 @@ import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
+from . import _export
 from ._core import chain_state, history_of, solve
 from ._dynamics import State, critical_step
 from ._engine import BatchState, make_clock
@@ -135,15 +137,21 @@ class Solution(eqx.Module):
     @property
     def energy_balance_error(self):
         """(K + U + D - K0 - W_drive) / K0 at the end of the run."""
+        xp = array_module(self.k0)
         total = (
-            jnp.sum(self.kinetic, -1)
+            xp.sum(self.kinetic, -1)
             + self.elastic
-            + jnp.sum(self.bending, -1)
-            + jnp.sum(self.axial, -1)
-            + jnp.sum(self.contact, -1)
+            + xp.sum(self.bending, -1)
+            + xp.sum(self.axial, -1)
+            + xp.sum(self.contact, -1)
         )
-        k0 = jnp.where(self.k0 > 0, self.k0, 1.0)
+        k0 = xp.where(self.k0 > 0, self.k0, 1.0)
         return (total - self.k0 - self.drive_work) / k0
+
+
+def array_module(x):
+    """numpy for host arrays (a finished run's read-out: no per-op dispatch), else jax.numpy."""
+    return np if isinstance(x, np.ndarray | np.generic) else jnp
 
 
 def step_size(scene: Scene, settings: Settings, dt_critical=None):
@@ -152,8 +160,8 @@ def step_size(scene: Scene, settings: Settings, dt_critical=None):
     `dt_critical`, when given, is the limit computed beforehand (a sweep computes every
     collision's first, outside its sharded program); otherwise it is computed here.
     """
-    if dt_critical is None:
-        dt_critical = _critical_step(scene)
+    if dt_critical is None:  # a stored program when the CLI has switched the store on
+        dt_critical = _export.call(_critical_step, scene, name="critical_step")
     dt_crit = jax.lax.stop_gradient(jnp.asarray(dt_critical, float))
     dt = dt_crit * settings.safety if settings.dt is None else jnp.asarray(settings.dt)
     return dt, dt_crit
@@ -163,11 +171,16 @@ def max_steps_for(scene: Scene, settings: Settings) -> int:
     """Static step bound: t_max / dt rounded up to a power of two (few recompilations)."""
     if settings.max_steps is not None:
         return settings.max_steps
-    dt, _ = step_size(scene, settings)
-    try:
-        n = float(jnp.max(settings.t_max / (dt * settings.substeps)))
-    except jax.errors.ConcretizationTypeError:
-        raise ValueError("under jit/vmap give Settings(max_steps=...) explicitly") from None
+    if settings.dt is None:
+        dt_critical = _export.call(_critical_step, scene, name="critical_step")
+        values = (dt_critical, settings.safety, settings.t_max)
+    else:
+        values = (settings.dt, settings.t_max)
+    if any(isinstance(v, jax.core.Tracer) for v in values):
+        raise ValueError("under jit/vmap give Settings(max_steps=...) explicitly")
+    # on the host, as `step_size` would compute it: eager jax ops each load a program
+    dt = settings.dt if settings.dt is not None else np.asarray(values[0]) * settings.safety
+    n = float(np.max(np.asarray(settings.t_max) / (np.asarray(dt) * settings.substeps)))
     return 2 ** max(8, math.ceil(math.log2(1.02 * n + 16)))
 
 

@@ -14,6 +14,7 @@ import jax
 import pytest
 
 import msfd_jax as m
+from msfd_jax import _export
 from msfd_jax.cli import enable_compilation_cache, main
 
 SMALL = [
@@ -141,12 +142,16 @@ def test_compilation_cache_follows_msfd_cache_dir(monkeypatch, tmp_path):
         "jax_persistent_cache_min_entry_size_bytes",
     )
     before = {n: getattr(jax.config, n) for n in names}
+    store = _export.store()
     try:
         assert enable_compilation_cache() == tmp_path
         assert jax.config.jax_compilation_cache_dir == str(tmp_path)
         assert jax.config.jax_persistent_cache_min_compile_time_secs == 0
         # Host callbacks keep executables out of the cache (see enable_compilation_cache).
         assert equinox._errors.EQX_ON_ERROR == "nan"
+        # serialized programs beside the compiled ones (tests/test_export.py)
+        assert _export.store() == tmp_path / "exported"
     finally:
         for n, v in before.items():
             jax.config.update(n, v)
+        _export.enable(store)

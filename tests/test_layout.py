@@ -88,6 +88,20 @@ def test_the_solver_path_imports_no_matplotlib():
     assert done.stdout.strip().splitlines()[-1] == "False", done.stdout
 
 
+def test_msfd_run_builds_only_its_parser_and_imports_no_optimiser():
+    # issue 11 goal 4: `tune`'s options come from optimise (optax); `msfd run` needs neither
+    code = (
+        "import sys; from msfd_jax.cli import build_parser; "
+        "p = build_parser('run'); p.parse_args(['run', '--json']); "
+        "print(sorted(m for m in ('optimise', 'optax', 'matplotlib', 'dask') if m in sys.modules))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=600, cwd=ROOT
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == "[]", done.stdout
+
+
 def test_no_source_file_is_over_500_lines():
     # issue 10: one concept per file; the largest today is studies/reproduce/quasistatic.py
     long = {

@@ -78,7 +78,12 @@ COMMANDS: dict[str, tuple[str, Callable, Callable]] = {
 }
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``msfd`` parser; with `command`, only that subcommand gets its options.
+
+    Building only the one subcommand that runs keeps a new process from importing what
+    the others need (``tune``'s options come from `optimise`, which loads optax).
+    """
     parser = argparse.ArgumentParser(
         prog="msfd", description="Ring-on-beam collisions with the MS-FD model (Ruan & Yu 2003)."
     )
@@ -87,11 +92,18 @@ def build_parser() -> argparse.ArgumentParser:
     parser.commands = {}  # name -> subparser (case files set its defaults)
     for name, (text, add_arguments, handler) in COMMANDS.items():
         sub = commands.add_parser(name, help=text, description=text)
-        add_arguments(sub)
+        if command is None or name == command:
+            add_arguments(sub)
+            _state_defaults(sub)
         sub.set_defaults(handler=handler)
         parser.commands[name] = sub
-        _state_defaults(sub)
     return parser
+
+
+def _command_of(argv: Sequence[str]) -> str | None:
+    """The subcommand `argv` names (its first word that is not an option), if a known one."""
+    word = next((a for a in argv if not a.startswith("-")), None)
+    return word if word in COMMANDS else None
 
 
 def _state_defaults(parser: argparse.ArgumentParser) -> None:
@@ -129,7 +141,7 @@ def _with_files(parser: argparse.ArgumentParser, args, argv) -> argparse.Namespa
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``msfd``; returns the exit code (0 ok, 2 bad input, 3 failed solve)."""
-    parser = build_parser()
+    parser = build_parser(_command_of(sys.argv[1:] if argv is None else argv))
     try:
         args = parser.parse_args(argv)
     except SystemExit as exit_:  # argparse has printed its message

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 import msfd_jax as m
+from msfd_jax import _export
 from msfd_jax._progress import LineProgress  # noqa: F401 (for optimise: msfd tune)
 
 EXIT_OK, EXIT_USAGE, EXIT_SOLVE = 0, 2, 3
@@ -283,6 +284,7 @@ def enable_compilation_cache() -> Path:
         equinox._errors.EQX_ON_ERROR = "nan"
     path = compilation_cache_dir()
     jax.config.update("jax_compilation_cache_dir", str(path))
+    _export.enable(path / "exported")  # serialized programs: no tracing in a new process
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
     return path

@@ -1,0 +1,259 @@
+"""Serialized programs (`jax.export`) stored next to the persistent compile cache (issue 11).
+
+A new process that runs a collision would trace diffrax's loop again (seconds) before the
+persistent compilation cache can even be consulted: JAX's cache is keyed by the lowered
+program, which only tracing produces. Here a jitted function's program is traced once,
+serialized with `jax.export` and stored under a key made of everything that decides what
+tracing would give:
+
+- the function's name, the arguments' pytree structure and static (non-array) leaves, the
+  shape, dtype and weak type of every array leaf;
+- the versions of Python, jax, jaxlib, equinox, diffrax and msfd-jax, and a hash of the
+  core's source files (`msfd_jax/*.py`), so that an edited solver never loads an old program;
+- the trace-time settings that change the program: x64, the backend, rank promotion,
+  matmul precision and equinox's ``EQX_ON_ERROR``.
+
+A later process with the same key deserializes the program (milliseconds) and compiles it,
+which the persistent cache turns into a load. Anything else falls back to tracing, with the
+same results: no store set (`enable` not called; the library's default), a key not found, a
+file that does not read back, or a program that cannot be exported (e.g. one holding host
+callbacks, as equinox's runtime checks are under ``EQX_ON_ERROR=raise``).
+
+The store is trusted as JAX's compile cache is (its records are unpickled): keep it in a
+directory only you can write, as ``~/.cache/msfd-jax`` is.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import importlib.metadata
+import os
+import pickle
+import sys
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import equinox as eqx
+import jax
+
+_FORMAT = 1  # bump when the stored record's layout changes
+_store: Path | None = None
+_source_hash: str | None = None
+_programs: dict[str, Program] = {}  # this process's programs by key (`call`)
+
+
+def enable(path: str | os.PathLike | None) -> Path | None:
+    """Store and load serialized programs in `path` (None switches the store off)."""
+    global _store
+    _store = None if path is None else Path(path).expanduser()
+    _programs.clear()
+    return _store
+
+
+def store() -> Path | None:
+    """The directory of serialized programs, or None when they are off."""
+    return _store
+
+
+@dataclasses.dataclass(frozen=True)
+class _Leaf:
+    """Placeholder for the i-th array output in a stored output template."""
+
+    index: int
+
+
+class Program:
+    """A compiled program of a jitted function for one argument signature.
+
+    `source` says where it came from: ``"loaded"`` (a stored serialized program),
+    ``"exported"`` (traced, serialized and stored now) or ``"traced"`` (no store, or the
+    program could not be exported; `reason` says why).
+    """
+
+    def __init__(self, compiled: Callable, template: Any, source: str, reason: str = ""):
+        self._compiled = compiled
+        self._template = template
+        self.source = source
+        self.reason = reason
+
+    def __call__(self, *args):
+        if self._template is None:  # a traced program takes the arguments as they are
+            return self._compiled(*args)
+        out = self._compiled(*_dynamic(args)[0])
+        return jax.tree_util.tree_map(
+            lambda x: out[x.index] if isinstance(x, _Leaf) else x,
+            self._template,
+            is_leaf=lambda x: isinstance(x, _Leaf),
+        )
+
+
+def call(fn: Callable, *args, name: str):
+    """``fn(*args)``, through a stored program when the store is on (`compile_program`).
+
+    Without a store, or under a transformation (a tracer among the arguments), this is
+    ``fn(*args)``: jit's own cache serves repeated calls in a process.
+    """
+    leaves = jax.tree_util.tree_leaves(args)
+    if _store is None or any(isinstance(x, jax.core.Tracer) for x in leaves):
+        return fn(*args)
+    key = _key_text(name, _dynamic(args)[2])
+    if key is None:
+        return fn(*args)
+    if key not in _programs:
+        _programs[key] = compile_program(fn, *args, name=name)
+    return _programs[key](*args)
+
+
+def compile_program(fn: Callable, *args, name: str) -> Program:
+    """The compiled program of ``fn(*args)`` (`fn` jitted, e.g. by `eqx.filter_jit`).
+
+    Non-array leaves of `args` are static (as in `eqx.filter_jit`); the program is called
+    with arguments of the same structure, static values and array shapes.
+    """
+    dynamic, rebuild, signature = _dynamic(args)
+    if _store is None:
+        return _traced(fn, args, "no store of serialized programs")
+    key_text = _key_text(name, signature)
+    if key_text is None:
+        return _traced(fn, args, "a static argument has no stable repr (no key)")
+    path = _path(name, key_text)
+    loaded = _load(path, key_text)
+    if loaded is not None:
+        exported, template = loaded
+        source = "loaded"
+    else:
+        try:
+            exported, template = _export(fn, dynamic, rebuild)
+            serialized = bytes(exported.serialize())
+            # compile what a later process loads: a deserialized program lowers to another
+            # module than the fresh one, and only the same module hits the compile cache
+            exported = jax.export.deserialize(bytearray(serialized))
+        except Exception as error:  # noqa: BLE001 (any export failure falls back to tracing)
+            return _traced(fn, args, f"export failed: {type(error).__name__}: {error}")
+        _save(path, key_text, serialized, template)
+        source = "exported"
+    compiled = jax.jit(exported.call).lower(*dynamic).compile()
+    return Program(compiled, template, source)
+
+
+def _path(name: str, key_text: str) -> Path:
+    """Where the program of `name` under `key_text` is stored (the store must be on)."""
+    assert _store is not None
+    return _store / f"{name}-{hashlib.sha256(key_text.encode()).hexdigest()[:32]}.jaxexport"
+
+
+def _traced(fn: Callable, args: tuple, reason: str) -> Program:
+    return Program(fn.lower(*args).compile(), None, "traced", reason)
+
+
+def _dynamic(args: tuple):
+    """(array leaves, rebuild(arrays) -> args, signature: structure, statics and avals)."""
+    leaves, treedef = jax.tree_util.tree_flatten(args)
+    is_array = [eqx.is_array(x) for x in leaves]
+    dynamic = [x for x, a in zip(leaves, is_array, strict=True) if a]
+
+    def rebuild(arrays):
+        it = iter(arrays)
+        pairs = zip(leaves, is_array, strict=True)
+        return treedef.unflatten([next(it) if a else x for x, a in pairs])
+
+    statics = [None if a else x for x, a in zip(leaves, is_array, strict=True)]
+    avals = [(x.shape, str(x.dtype), bool(getattr(x, "weak_type", False))) for x in dynamic]
+    return dynamic, rebuild, (str(treedef), repr(statics), repr(avals))
+
+
+def _key_text(name: str, signature: tuple) -> str | None:
+    if any(" at 0x" in part for part in signature):  # a repr with an address: no stable key
+        return None
+    import equinox._errors
+
+    environment = {
+        "format": _FORMAT,
+        "python": sys.version,
+        "versions": _versions(),
+        "source": source_hash(),
+        "backend": jax.default_backend(),
+        "x64": bool(jax.config.jax_enable_x64),
+        "rank_promotion": str(jax.config.jax_numpy_rank_promotion),
+        "matmul_precision": str(jax.config.jax_default_matmul_precision),
+        "eqx_on_error": str(getattr(equinox._errors, "EQX_ON_ERROR", "?")),
+    }
+    return repr((name, *signature, sorted(environment.items())))
+
+
+@functools.cache
+def _versions() -> dict[str, str]:
+    import diffrax
+    import jaxlib
+
+    try:
+        msfd = importlib.metadata.version("msfd-jax")
+    except importlib.metadata.PackageNotFoundError:  # a source tree: the source hash decides
+        msfd = "0+unknown"
+    return {
+        "jax": jax.__version__,
+        "jaxlib": jaxlib.__version__,
+        "equinox": eqx.__version__,
+        "diffrax": diffrax.__version__,
+        "msfd-jax": msfd,
+    }
+
+
+def source_hash() -> str:
+    """sha256 of the core's source files (`msfd_jax/*.py`), computed once per process."""
+    global _source_hash
+    if _source_hash is None:
+        digest = hashlib.sha256()
+        for file in sorted(Path(__file__).parent.glob("*.py")):
+            digest.update(file.name.encode() + b"\0" + file.read_bytes() + b"\0")
+        _source_hash = digest.hexdigest()
+    return _source_hash
+
+
+def _export(fn: Callable, dynamic: list, rebuild: Callable):
+    """Trace `fn` once into a `jax.export.Exported` of array leaves, and its output template."""
+    template = []
+
+    def flat(*arrays):
+        out = fn(*rebuild(arrays))
+        leaves, treedef = jax.tree_util.tree_flatten(out)
+        arrays_out, marks = [], []
+        for x in leaves:
+            if isinstance(x, jax.Array):
+                marks.append(_Leaf(len(arrays_out)))
+                arrays_out.append(x)
+            else:  # a static output (a Python value) is kept in the template
+                marks.append(x)
+        template.append(treedef.unflatten(marks))
+        return arrays_out
+
+    exported = jax.export.export(jax.jit(flat))(*dynamic)
+    return exported, template[0]
+
+
+def _load(path: Path, key_text: str):
+    """(Exported, template) stored at `path` under `key_text`, or None (any failure)."""
+    try:
+        record = pickle.loads(path.read_bytes())
+        if record.get("key") != key_text:
+            return None
+        return jax.export.deserialize(bytearray(record["exported"])), record["template"]
+    except Exception:  # noqa: BLE001 (missing, truncated or foreign file: trace instead)
+        return None
+
+
+def _save(path: Path, key_text: str, serialized: bytes, template) -> None:
+    """Write atomically (a temporary file renamed), so a reader never sees half a file."""
+    record = {"key": key_text, "exported": serialized, "template": template}
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
+        with os.fdopen(fd, "wb") as f:
+            f.write(pickle.dumps(record, protocol=pickle.HIGHEST_PROTOCOL))
+        os.replace(tmp, path)
+    except OSError:  # a read-only or full disk costs the next process a trace, nothing else
+        pass
