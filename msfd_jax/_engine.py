@@ -76,10 +76,15 @@ class Clock(eqx.Module):
     k0: Float[Array, " B"]
 
 
-def make_clock(flat: FlatScene, dt, settings, max_steps) -> Clock:
-    """The clocks of a batch: `dt` (B,) the Verlet step, numbers from `settings`."""
+def make_clock(flat: FlatScene, dt, settings, max_steps, t_max=None) -> Clock:
+    """The clocks of a batch: `dt` (B,) the Verlet step, numbers from `settings`.
+
+    `t_max` (B,), when given, is each collision's cap (the derived caps of
+    ``Settings(t_max=None)``, `msfd_jax._cap`); otherwise ``settings.t_max`` for all.
+    """
     dt0 = dt * settings.substeps
-    t_max = jnp.broadcast_to(jnp.asarray(settings.t_max, float), dt0.shape)
+    t_max = settings.t_max if t_max is None else t_max
+    t_max = jnp.broadcast_to(jnp.asarray(t_max, float), dt0.shape)
     n = jnp.ceil(t_max / jnp.nextafter(dt0, jnp.inf))
     k0 = flat.initial_kinetic_energy
     return Clock(

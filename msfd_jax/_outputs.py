@@ -12,7 +12,7 @@ import numpy as np
 
 from ._params import CollisionParams, Mesh, Scales
 from ._provenance import mesh_json, settings_json, versions
-from ._results import FAILED, RESULTS
+from ._results import BALANCE_TOLERANCE, FAILED, RESULTS
 from ._scene import Scene, ring_on_beam
 from ._si import design_quantities, motion_settings
 from ._simulate import (
@@ -77,9 +77,9 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
     t = float(sol.t_end)
     dt, dt_crit = float(sol.dt), float(sol.dt_critical)
     if code == RESULTS.settled:
-        return f"settled: plastic dissipation stopped; ended at tau = {t:.4g}"
+        return f"settled: plastic dissipation stopped; ended at tau = {t:.4g}" + _balance(sol)
     if code == RESULTS.time_limit:
-        return f"reached the time cap tau = {t:.4g} (dissipation had not stopped)"
+        return f"reached the time cap tau = {t:.4g} (dissipation had not stopped)" + _balance(sol)
     if code == RESULTS.max_steps:
         return (
             f"stopped at tau = {t:.4g} after the maximum number of steps ({int(sol.steps)}); "
@@ -116,6 +116,24 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
     return (
         f"the solve {what}{detail} at tau = {t:.4g} in the {place}; likely cause: {cause}; "
         f"remedy: {remedy}"
+    )
+
+
+def balance_warning(solution: Solution):
+    """True where a run reports success (settled, time limit) but its energy balance closes
+    only to worse than `BALANCE_TOLERANCE` K0 (arrays; batched if the solution is)."""
+    success = (solution.result == RESULTS.settled) | (solution.result == RESULTS.time_limit)
+    return success & (jnp.abs(solution.energy_balance_error) > BALANCE_TOLERANCE)
+
+
+def _balance(sol: Solution) -> str:
+    """The message's suffix for a successful run whose balance is not closed to tolerance."""
+    if not bool(balance_warning(sol)):
+        return ""
+    err = abs(float(sol.energy_balance_error))
+    return (
+        f"; balance {err:.1e} K0 (above {BALANCE_TOLERANCE:g}: fractions uncertain by about "
+        "that much; a smaller Settings.safety or contact_smoothing may close it)"
     )
 
 
@@ -176,6 +194,12 @@ class Collision:
         return RESULTS(int(self.solution.result)).status
 
     @property
+    def balance_warning(self) -> bool:
+        """True if the run reports success but closes its energy balance only to worse than
+        `BALANCE_TOLERANCE` (1e-4) K0 (its message then says how far)."""
+        return bool(balance_warning(self.solution))
+
+    @property
     def message(self) -> str:
         return diagnose(self.solution, self.scene)
 
@@ -197,6 +221,8 @@ class Collision:
             "dt_critical": float(self.solution.dt_critical),
             "k0": float(self.solution.k0),
             "status": self.status,
+            "balance_warning": self.balance_warning,
+            "t_max": float(self.solution.ts[-1]),  # the cap used (derived when t_max is None)
             "wall_time_s": self.wall_time_s,
             "compile_time_s": self.compile_time_s,
             "params": {

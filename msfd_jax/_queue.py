@@ -18,7 +18,9 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array
 
+from ._cap import time_cap
 from ._core import solve
 from ._dynamics import State
 from ._engine import BatchState, initial_state, kinetic, make_clock, pair_forces
@@ -31,9 +33,10 @@ DEFAULT_SLOTS = 64
 DEFAULT_SEGMENT = 64  # diffrax steps (x substeps Verlet steps) between refills
 
 
-def _scenes(params: CollisionParams, mesh: Mesh, smoothing) -> FlatScene:
+def _scenes(params: CollisionParams, mesh: Mesh, smoothing) -> tuple[FlatScene, Array | None]:
+    """The batch's flat scene, and each collision's derived cap (None: no cap derived)."""
     scenes = jax.vmap(lambda p: _ring_on_beam(p, mesh, smoothing[0], smoothing[1]))(params)
-    return batch_scenes(scenes)
+    return batch_scenes(scenes), jax.vmap(time_cap)(scenes)
 
 
 def _dt(dt_crit, settings: Settings):
@@ -42,8 +45,9 @@ def _dt(dt_crit, settings: Settings):
 
 @eqx.filter_jit
 def _start(params, dt_crit, mesh, smoothing, settings, max_steps):
-    flat = _scenes(params, mesh, smoothing)
-    clock = make_clock(flat, _dt(dt_crit, settings), settings, max_steps)
+    flat, cap = _scenes(params, mesh, smoothing)
+    cap = cap if settings.t_max is None else None
+    clock = make_clock(flat, _dt(dt_crit, settings), settings, max_steps, cap)
     return flat, clock, initial_state(flat)
 
 
@@ -227,9 +231,10 @@ def solve_batch(
     differentiated (`critical_step`); `max_steps` bounds the diffrax steps (static).
     """
     smoothing = (jnp.asarray(contact_smoothing, float), jnp.asarray(yield_smoothing, float))
-    flat = _scenes(params, mesh, smoothing)
+    flat, cap = _scenes(params, mesh, smoothing)
     dt = _dt(jax.lax.stop_gradient(jnp.asarray(dt_critical, float)), settings)
-    clock = make_clock(flat, dt, settings, max_steps)
+    cap = jax.lax.stop_gradient(cap) if settings.t_max is None else None
+    clock = make_clock(flat, dt, settings, max_steps, cap)
     sol = solve(flat, clock, initial_state(flat), settings, max_steps=max_steps, adjoint=adjoint)
     y = jax.tree_util.tree_map(lambda a: a[-1], sol.ys)
     k0 = clock.k0

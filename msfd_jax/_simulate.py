@@ -17,6 +17,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from ._cap import time_cap
 from ._core import chain_state, history_of, solve
 from ._dynamics import State, critical_step
 from ._engine import BatchState, make_clock
@@ -46,7 +47,10 @@ class Settings(eqx.Module):
       reference with a 30 % margin on the collisions of docs/accuracy.md (re-chosen after
       the contact fix of issue 9; it was 0.6).
     - `dt`: a fixed step that overrides `safety` (non-dimensional time).
-    - `t_max`: cap on the run length. `t_min`: never stop before this.
+    - `t_max`: cap on the run length; None (the default) derives each collision's cap from
+      its inputs (`msfd_jax._cap.time_cap`: 3 x the time the structures' collapse loads take
+      to stop the block, + 2, within [10, 100]; 10 for every design that stopped before the
+      former fixed cap of 10). A number is an explicit cap. `t_min`: never stop before this.
     - `settle_window`, `settle_tolerance`, `settle_residual`: the stopping rule. A run ends
       when the dissipation has grown by less than `settle_tolerance` K0 for `settle_window`
       and, besides, the contact has been open for `settle_window` or the kinetic plus elastic
@@ -62,7 +66,7 @@ class Settings(eqx.Module):
 
     safety: float = 0.7
     dt: float | None = None
-    t_max: float = 10.0
+    t_max: float | None = None
     t_min: float = 0.2
     settle_window: float = 0.5
     settle_tolerance: float = 1e-5
@@ -77,7 +81,6 @@ class Settings(eqx.Module):
     def __check_init__(self):
         ranges = dict(
             safety=(0.0, 10.0, False, True),
-            t_max=(0.0, 1.0e4, False, True),  # beyond, float64 time loses the step's digits
             t_min=(0.0, 1.0e4, True, True),
             settle_window=(0.0, 1.0e4, False, True),
             settle_tolerance=(0.0, 1.0, True, True),
@@ -86,6 +89,8 @@ class Settings(eqx.Module):
         )
         for name, bounds in ranges.items():
             _check_value(name, getattr(self, name), *bounds)
+        if self.t_max is not None:  # beyond 1e4, float64 time loses the step's digits
+            _check_value("t_max", self.t_max, 0.0, 1.0e4, False, True)
         if self.dt is not None:
             _check_value("dt", self.dt, 0.0, 1.0e3, False, True)
         if not isinstance(self.stop_when_settled, bool):
@@ -153,6 +158,20 @@ def step_size(scene: Scene, settings: Settings, dt_critical=None):
     dt_crit = jax.lax.stop_gradient(jnp.asarray(dt_critical, float))
     dt = dt_crit * settings.safety if settings.dt is None else jnp.asarray(settings.dt)
     return dt, dt_crit
+
+
+def resolve_cap(scene: Scene, settings: Settings) -> Settings:
+    """`settings` with ``t_max=None`` replaced by the scene's derived cap (`time_cap`).
+
+    A concrete scene gives a Python float (so the step bound and histories follow from it);
+    a traced one (under jit/vmap) a traced cap, with `Settings.max_steps` then needed.
+    """
+    if settings.t_max is not None:
+        return settings
+    cap = jax.lax.stop_gradient(time_cap(scene))  # a cap, not a design output
+    if not isinstance(cap, jax.core.Tracer):
+        cap = float(cap)
+    return dataclasses.replace(settings, t_max=cap)
 
 
 def max_steps_for(scene: Scene, settings: Settings) -> int:
@@ -268,6 +287,7 @@ def prepare(scene: Scene, settings: Settings, adjoint=None, dt_critical=None) ->
     cache) ahead of the run, so that `run` can time compilation and the run apart.
     """
     adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
+    settings = resolve_cap(scene, settings)
     if not isinstance(settings.t_max, jax.core.Tracer):
         # shape times past the cap are dropped (a short run keeps the default times it reaches)
         kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
