@@ -27,7 +27,7 @@ from jaxtyping import Array, Float
 from ._flat import FlatScene, PairLayout
 from ._laws import contact_energy, contact_spring, elastic_plastic
 from ._results import RESULTS
-from ._safe import atan2, safe_norm
+from ._safe import atan2, safe_norm, unwrap_near
 
 _MIRROR = np.array([1.0, -1.0])[None, :, None]  # diag(1, -1) acting on (n, 2, B) vectors
 
@@ -148,6 +148,7 @@ def _chain_response(flat: FlatScene, c, x, rotation_p, strain_p):
     sl_j = slice(c.joint, c.joint + c.n_joints)
     k, w = flat.joint_stiffness[sl_j], flat.joint_weight[sl_j]
     angle = atan2(ax * by - ay * bx, ax * bx + ay * by) - flat.reference_angle[sl_j]
+    angle = unwrap_near(angle, rotation_p[sl_j])  # a fold past pi: no jump (issue 12)
     moment, rotation1, d_rot = elastic_plastic(
         angle, rotation_p[sl_j], k, flat.plastic_moment[sl_j], ys
     )
