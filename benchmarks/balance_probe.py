@@ -82,15 +82,22 @@ def main(argv=None):
     parser.add_argument("--record", default="reliability_before")
     parser.add_argument("--rows", type=int, default=6)
     parser.add_argument("--t-max", type=float, default=10.0)
+    parser.add_argument("--pick", nargs="*", default=None, help="seed/row keys instead")
+    parser.add_argument("--name", default="balance_probe")
     args = parser.parse_args(argv)
     record = json.loads((RESULTS / f"{args.record}.json").read_text())
     ok = [r for r in record["rows"] if r["status"] in ("settled", "time limit")]
     worst = sorted(ok, key=lambda r: -abs(r["energy_balance_error"]))[: args.rows]
+    if args.pick:
+        keys = {f"{r['seed']}/{r['index']}": r for r in record["rows"]}
+        worst = [keys[k] for k in args.pick]
     lines = [
         "# Energy balance of the worst successful rows, one by one",
         "",
         f"`taskset -c 1 python benchmarks/balance_probe.py --record {args.record} --rows "
-        f"{args.rows} --t-max {args.t_max:g}` (paper mesh; errors in K0; jump: the largest "
+        f"{args.rows} --t-max {args.t_max:g}"
+        + (f" --pick {' '.join(args.pick)}" if args.pick else "")
+        + f" --name {args.name}` (paper mesh; errors in K0; jump: the largest "
         "change of the error between two of 4001 history samples, at tau; F: contact force/K0 "
         "then; pairs: node pairs in contact then; strain: the shortest ring bar at the end).",
         "",
@@ -113,8 +120,8 @@ def main(argv=None):
             line = "| " + " | ".join(str(c) for c in cells) + " |"
             lines.append(line)
             print(line, flush=True)
-    (RESULTS / "balance_probe.md").write_text("\n".join(lines) + "\n")
-    (RESULTS / "balance_probe.json").write_text(json.dumps(found, indent=1) + "\n")
+    (RESULTS / f"{args.name}.md").write_text("\n".join(lines) + "\n")
+    (RESULTS / f"{args.name}.json").write_text(json.dumps(found, indent=1) + "\n")
 
 
 if __name__ == "__main__":
