@@ -22,7 +22,8 @@ HEAVY_SLOW = dict(
     thickness_ratio=3.27, mass_ratio=86.8, velocity=0.393, modulus_ratio=113.0,
     slenderness=10.6, axial_constraint=0.0,
 )  # fmt: skip
-LEAN = dataclasses.replace(SWEEP_SETTINGS, history_points=2, shape_times=())
+# one static step bound for every run here, so that they share one compiled program
+LEAN = dataclasses.replace(SWEEP_SETTINGS, max_steps=2**14)
 
 
 def test_the_derived_cap_keeps_the_former_cap_for_the_showcase_and_grows_for_heavy_impacts():
@@ -51,11 +52,26 @@ def test_a_heavy_slow_impact_that_hit_the_former_cap_now_settles():
     assert short.status == "time limit" and float(short.solution.t_end) == 2.0
 
 
-def test_a_sweep_derives_each_collisions_cap():
+def test_a_sweep_derives_each_collisions_cap_and_flags_an_open_balance():
     rows = [{}, HEAVY_SLOW]
-    table = m.sweep(rows, SMALL_MESH, LEAN, chunk_size=8)
+    table = m.sweep(rows, SMALL_MESH, SWEEP_SETTINGS, chunk_size=8)
     assert list(table["status"]) == ["settled", "settled"]
     assert table["t_end"][1] > 10.0 > table["t_end"][0]
+    error = np.abs(table["energy_balance_error"])
+    assert list(table["balance_warning"]) == list((error > BALANCE_TOLERANCE).astype(int))
+    # the showcase on the coarse mesh closes its balance only to ~2e-4 K0: flagged, and said
+    assert table["balance_warning"][0] == 1
+    assert f"balance {error[0]:.1e} K0" in table["message"][0]
+
+
+def test_a_run_that_does_not_close_its_balance_says_so():
+    coarse = m.run(m.CollisionParams(), SMALL_MESH, LEAN)  # settles with ~2e-4 K0 open
+    assert coarse.status == "settled"
+    assert abs(coarse.energy_balance_error) > BALANCE_TOLERANCE
+    assert coarse.balance_warning and coarse.to_json()["balance_warning"] is True
+    assert coarse.message.startswith("settled") and "balance" in coarse.message
+    # the status names and codes stay the output format
+    assert int(coarse.solution.result) == 0
 
 
 def test_joint_angles_are_unwrapped_about_their_plastic_rotation():
