@@ -20,6 +20,7 @@ from ._simulate import (
     Solution,
     _simulate,
     prepare,
+    resolve_cap,
 )
 
 FRACTION_KEYS = (
@@ -77,9 +78,11 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
     t = float(sol.t_end)
     dt, dt_crit = float(sol.dt), float(sol.dt_critical)
     if code == RESULTS.settled:
-        return f"settled: plastic dissipation stopped; ended at tau = {t:.4g}" + _balance(sol)
+        text = f"settled: plastic dissipation stopped; ended at tau = {t:.4g}"
+        return text + _balance(sol) + _folded(sol, scene)
     if code == RESULTS.time_limit:
-        return f"reached the time cap tau = {t:.4g} (dissipation had not stopped)" + _balance(sol)
+        text = f"reached the time cap tau = {t:.4g} (dissipation had not stopped)"
+        return text + _balance(sol) + _folded(sol, scene)
     if code == RESULTS.max_steps:
         return (
             f"stopped at tau = {t:.4g} after the maximum number of steps ({int(sol.steps)}); "
@@ -135,6 +138,25 @@ def _balance(sol: Solution) -> str:
         f"; balance {err:.1e} K0 (above {BALANCE_TOLERANCE:g}: fractions uncertain by about "
         "that much; a smaller Settings.safety or contact_smoothing may close it)"
     )
+
+
+def _folded(sol: Solution, scene: Scene) -> str:
+    """The message's suffix when a joint has folded past pi (its bars through each other).
+
+    The joint angle is continuous past pi (`_safe.unwrap_near`), so the energy balance holds,
+    but the bars then overlap: the model has no ring-on-ring or ring-on-block contact to stop
+    it, and the partition of such a collapse is the model's, not the structure's.
+    """
+    for c, rotation in zip(scene.chains, sol.final.plastic_rotation, strict=True):
+        rotation = np.abs(np.asarray(rotation))
+        if rotation.size and rotation.max() > np.pi:
+            k = int(np.argmax(rotation))
+            return (
+                f"; warning: {c.name} joint at node {c.joint_nodes[k]} folded by "
+                f"{rotation[k]:.2f} rad, past pi (its bars through each other), a collapse "
+                "beyond what the model represents"
+            )
+    return ""
 
 
 def _degenerate(sol: Solution, scene: Scene) -> str | None:
@@ -285,7 +307,8 @@ def run(
     )
     if scales is not None and not isinstance(scales, Scales):
         raise TypeError(f"scales must be a msfd_jax.Scales (from from_si), got {scales!r}")
-    solved = settings if scales is None else motion_settings(settings)
+    solved = resolve_cap(scene, settings)  # t_max=None: this collision's derived cap
+    solved = solved if scales is None else motion_settings(solved)
     # compile (or load from the cache) first, then run: the two are timed apart (issue 11)
     start = time.perf_counter()
     args = prepare(scene, solved)
