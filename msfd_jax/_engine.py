@@ -29,6 +29,7 @@ from ._laws import contact_energy, contact_spring, elastic_plastic
 from ._results import RESULTS
 from ._safe import atan2, safe_norm, unwrap_near
 
+GRID_SPAN = 10.0  # the grid of a derived cap: that of the former fixed cap (= _cap.T_MAX_FLOOR)
 _MIRROR = np.array([1.0, -1.0])[None, :, None]  # diag(1, -1) acting on (n, 2, B) vectors
 
 
@@ -71,6 +72,7 @@ class Clock(eqx.Module):
     dt0: Float[Array, " B"]
     n: Float[Array, " B"]
     t_max: Float[Array, " B"]
+    span: Float[Array, " B"]  # the grid's: t_max, or for a derived cap its floor (below)
     max_steps: Float[Array, " B"]  # diffrax steps allowed (Settings.max_steps)
     tolerance: Float[Array, " B"]  # settle_tolerance x K0
     k0: Float[Array, " B"]
@@ -80,17 +82,23 @@ def make_clock(flat: FlatScene, dt, settings, max_steps, t_max=None) -> Clock:
     """The clocks of a batch: `dt` (B,) the Verlet step, numbers from `settings`.
 
     `t_max` (B,), when given, is each collision's cap (the derived caps of
-    ``Settings(t_max=None)``, `msfd_jax._cap`); otherwise ``settings.t_max`` for all.
+    ``Settings(t_max=None)``, `msfd_jax._cap`); otherwise ``settings.t_max`` for all. A derived
+    cap keeps the grid of its floor (`span` = 10: step k ends at 10 k / n, continued past 10
+    up to the cap), so a collision that stops before 10 takes exactly the steps it took with
+    the former fixed cap.
     """
     dt0 = dt * settings.substeps
+    derived = t_max is not None
     t_max = settings.t_max if t_max is None else t_max
     t_max = jnp.broadcast_to(jnp.asarray(t_max, float), dt0.shape)
-    n = jnp.ceil(t_max / jnp.nextafter(dt0, jnp.inf))
+    span = jnp.minimum(t_max, GRID_SPAN) if derived else t_max
+    n = jnp.ceil(span / jnp.nextafter(dt0, jnp.inf))
     k0 = flat.initial_kinetic_energy
     return Clock(
         dt0,
         n,
         t_max,
+        span,
         jnp.broadcast_to(jnp.asarray(max_steps, float), dt0.shape),
         settings.settle_tolerance * k0,
         k0,
@@ -333,8 +341,10 @@ def advance(flat: FlatScene, clock: Clock, s: BatchState, substeps: int, rule) -
     """One diffrax step of every collision not yet stopped: `substeps` Verlet steps on its own
     grid, then its stopping rule (`rule`: the Settings numbers). Stopped ones stay frozen."""
     k = s.k + 1.0
-    t_next = jnp.where(k == 1.0, clock.dt0, clock.t_max * (k / clock.n))
-    t_next = jnp.where(k >= clock.n, clock.t_max, t_next)
+    t_next = jnp.where(k == 1.0, clock.dt0, clock.span * (k / clock.n))
+    # the cap: the grid's end (as diffrax's), or a derived cap past its floor's grid
+    capped = jnp.where(clock.span < clock.t_max, t_next >= clock.t_max, k >= clock.n)
+    t_next = jnp.where(capped, clock.t_max, t_next)
     t0 = s.t
     h = (t_next - t0) / substeps
 
@@ -352,7 +362,6 @@ def advance(flat: FlatScene, clock: Clock, s: BatchState, substeps: int, rule) -
         apart = t - y.last_contact > rule.settle_window
         spent = jnp.sum(kinetic(flat, y.v), 0) + y.elastic <= rule.settle_residual * clock.k0
         settled = quiet & (apart | spent)
-    capped = k >= clock.n
     out_of_steps = k >= clock.max_steps
     stop = broken | settled | capped | out_of_steps
     code = jnp.where(

@@ -307,8 +307,10 @@ def run(
     )
     if scales is not None and not isinstance(scales, Scales):
         raise TypeError(f"scales must be a msfd_jax.Scales (from from_si), got {scales!r}")
-    solved = resolve_cap(scene, settings)  # t_max=None: this collision's derived cap
-    solved = solved if scales is None else motion_settings(solved)
+    solved = settings
+    if scales is not None:  # positions at every history sample over [0, the cap]
+        motion = motion_settings(resolve_cap(scene, settings))
+        solved = dataclasses.replace(motion, t_max=settings.t_max)
     # compile (or load from the cache) first, then run: the two are timed apart (issue 11)
     start = time.perf_counter()
     args = prepare(scene, solved)

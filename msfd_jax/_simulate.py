@@ -58,7 +58,13 @@ class Settings(eqx.Module):
     - `stop_when_settled`: False runs to `t_max` (driven, quasi-static scenes).
     - `history_points`: samples of the energy/contact histories over [0, t_max].
     - `shape_times`: times at which node positions are saved.
-    - `energy_guard`: stop when |energy balance error| exceeds this fraction of K0.
+    - `energy_guard`: stop when |energy balance error| exceeds this fraction of K0 (0.05:
+      kept after issue 12's reliability benchmark, docs/stability.md: once joint folds past pi
+      no longer book spurious dissipation, what a successful run leaves open above 1e-4 K0 is
+      the sharp contact at the default step in slow, light impacts, up to ~4e-2 K0 of a small
+      K0, which a smaller step closes; such runs keep their status with `balance_warning` and
+      a message saying how far the balance is open, while an unstable step or a collapse the
+      model cannot follow still trips the guard).
     - `max_steps`: static bound on the number of diffrax steps (None: from t_max / dt).
     - `substeps`: Verlet steps per diffrax step (histories are interpolated linearly between
       diffrax steps, and the stopping rule is checked once per diffrax step).
@@ -178,6 +184,7 @@ def max_steps_for(scene: Scene, settings: Settings) -> int:
     """Static step bound: t_max / dt rounded up to a power of two (few recompilations)."""
     if settings.max_steps is not None:
         return settings.max_steps
+    settings = resolve_cap(scene, settings)
     dt, _ = step_size(scene, settings)
     try:
         n = float(jnp.max(settings.t_max / (dt * settings.substeps)))
@@ -194,10 +201,15 @@ def _simulate(
     # collision's own physical time, so histories and shapes are saved at physical times
     flat = flatten(scene)
     dt, dt_crit = step_size(scene, settings, dt_critical)
-    clock = make_clock(flat, dt[None], settings, max_steps)
+    # t_max=None: this collision's derived cap, on its floor's grid (`make_clock`)
+    cap = None if settings.t_max is None else settings.t_max
+    if cap is None:
+        cap = jax.lax.stop_gradient(time_cap(scene))
+    derived = None if settings.t_max is not None else cap[None]
+    clock = make_clock(flat, dt[None], settings, max_steps, derived)
     y0 = engine_initial_state(flat)
     k0 = clock.k0[0]
-    ts = jnp.linspace(0.0, settings.t_max, settings.history_points)
+    ts = jnp.linspace(0.0, cap, settings.history_points)
     shape_ts = jnp.asarray(sorted({0.0, *settings.shape_times}), float)
     saveat = diffrax.SaveAt(
         subs=[
@@ -287,10 +299,10 @@ def prepare(scene: Scene, settings: Settings, adjoint=None, dt_critical=None) ->
     cache) ahead of the run, so that `run` can time compilation and the run apart.
     """
     adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
-    settings = resolve_cap(scene, settings)
-    if not isinstance(settings.t_max, jax.core.Tracer):
+    cap = resolve_cap(scene, settings).t_max  # t_max stays None: _simulate derives it again
+    if not isinstance(cap, jax.core.Tracer):
         # shape times past the cap are dropped (a short run keeps the default times it reaches)
-        kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
+        kept = tuple(t for t in settings.shape_times if t <= float(cap))
         settings = dataclasses.replace(settings, shape_times=kept)
     # numbers as arrays, so that a new t_max or dt does not compile a new program
     settings = jax.tree_util.tree_map(
