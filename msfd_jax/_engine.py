@@ -29,6 +29,7 @@ from ._laws import contact_energy, contact_spring, elastic_plastic
 from ._results import RESULTS
 from ._safe import atan2, safe_norm, unwrap_near
 
+FOLD_LIMIT = float(np.pi)  # plastic joint rotation at which a run stops (bars folded through)
 GRID_SPAN = 10.0  # the grid of a derived cap: that of the former fixed cap (= _cap.T_MAX_FLOOR)
 _MIRROR = np.array([1.0, -1.0])[None, :, None]  # diag(1, -1) acting on (n, 2, B) vectors
 
@@ -354,7 +355,10 @@ def advance(flat: FlatScene, clock: Clock, s: BatchState, substeps: int, rule) -
     y = body(0, s) if substeps == 1 else jax.lax.fori_loop(0, substeps, body, s)
     err = energy_error(flat, y, clock.k0)
     non_finite = ~jnp.isfinite(err)
-    broken = non_finite | (jnp.abs(err) > rule.energy_guard)
+    # a joint folded past pi: its bars pass through each other, which the model (no contact
+    # of the ring with itself or the block) cannot follow; stopped as a broken run (issue 12)
+    folded = jnp.any(jnp.abs(y.plastic_rotation) > FOLD_LIMIT, axis=0)
+    broken = non_finite | (jnp.abs(err) > rule.energy_guard) | folded
     settled = jnp.zeros_like(broken)
     if rule.stop_when_settled:
         t = t_next

@@ -10,6 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._engine import FOLD_LIMIT
 from ._params import CollisionParams, Mesh, Scales
 from ._provenance import mesh_json, settings_json, versions
 from ._results import BALANCE_TOLERANCE, FAILED, RESULTS
@@ -78,11 +79,9 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
     t = float(sol.t_end)
     dt, dt_crit = float(sol.dt), float(sol.dt_critical)
     if code == RESULTS.settled:
-        text = f"settled: plastic dissipation stopped; ended at tau = {t:.4g}"
-        return text + _balance(sol) + _folded(sol, scene)
+        return f"settled: plastic dissipation stopped; ended at tau = {t:.4g}" + _balance(sol)
     if code == RESULTS.time_limit:
-        text = f"reached the time cap tau = {t:.4g} (dissipation had not stopped)"
-        return text + _balance(sol) + _folded(sol, scene)
+        return f"reached the time cap tau = {t:.4g} (dissipation had not stopped)" + _balance(sol)
     if code == RESULTS.max_steps:
         return (
             f"stopped at tau = {t:.4g} after the maximum number of steps ({int(sol.steps)}); "
@@ -116,6 +115,14 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
     what = "became non-finite" if code == RESULTS.non_finite else "broke its energy balance"
     err = float(sol.energy_balance_error) if code == RESULTS.energy_balance_broken else float("nan")
     detail = f" (error {err:.3g} K0)" if code == RESULTS.energy_balance_broken else ""
+    fold = _folded(sol, scene) if code == RESULTS.energy_balance_broken else ""
+    if fold and np.isfinite(err):  # the fold guard (`_engine.FOLD_LIMIT`), not the balance
+        return (
+            f"the solve stopped at tau = {t:.4g} (energy balance error {err:.3g} K0): a "
+            f"{fold.removeprefix('; warning: ')}; the model has no contact of the ring with "
+            "itself or the block to stop such a fold; remedy: the impact is beyond what the "
+            "discrete model represents: lower the velocity or the mass; a smaller dt does not help"
+        )
     return (
         f"the solve {what}{detail} at tau = {t:.4g} in the {place}; likely cause: {cause}; "
         f"remedy: {remedy}"
@@ -141,20 +148,19 @@ def _balance(sol: Solution) -> str:
 
 
 def _folded(sol: Solution, scene: Scene) -> str:
-    """The message's suffix when a joint has folded past pi (its bars through each other).
+    """Which joint has folded past `FOLD_LIMIT` (pi: its bars through each other), if any.
 
     The joint angle is continuous past pi (`_safe.unwrap_near`), so the energy balance holds,
     but the bars then overlap: the model has no ring-on-ring or ring-on-block contact to stop
-    it, and the partition of such a collapse is the model's, not the structure's.
+    it, so the engine stops the run there (result 3, this message).
     """
     for c, rotation in zip(scene.chains, sol.final.plastic_rotation, strict=True):
         rotation = np.abs(np.asarray(rotation))
-        if rotation.size and rotation.max() > np.pi:
+        if rotation.size and rotation.max() > FOLD_LIMIT:
             k = int(np.argmax(rotation))
             return (
                 f"; warning: {c.name} joint at node {c.joint_nodes[k]} folded by "
-                f"{rotation[k]:.2f} rad, past pi (its bars through each other), a collapse "
-                "beyond what the model represents"
+                f"{rotation[k]:.2f} rad, past pi (its bars through each other)"
             )
     return ""
 
