@@ -1,4 +1,4 @@
-"""Where the energy balance of a successful run breaks (issue 12 item 1): the worst rows, one by one.
+"""Where the energy balance of a successful run breaks (issue 12 item 1): the worst rows.
 
 For each of the worst successful rows of a reliability record (benchmarks/reliability.py) the
 design is rerun alone on the paper's mesh with histories, at the default step, at half and a
