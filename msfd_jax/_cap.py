@@ -20,7 +20,10 @@ taken up by the rigid-plastic resistances of the two structures, which act in se
 t_stop = max(t_ring + t_beam(v1), t_beam(v0)). The floor is the former fixed cap (10), so a
 design that stopped before it runs exactly as before (same clock, steps and histories; the
 showcase's t_stop is 1.96 and it ends at 3.28). CAP_FACTOR and CAP_MARGIN are set from the
-reliability benchmark (benchmarks/results/reliability.md); the ceiling bounds the cost of
+reliability benchmark: with the former fixed cap, 99 % of the settled designs ended by
+3.25 t_stop + 2 (reliability_before.json); with this cap none of 300 designs reached it
+(benchmarks/results/reliability.md). The estimate is pessimistic for free thin beams (t_stop
+in the thousands where runs settled by tau = 37), hence the ceiling; it also bounds the cost of
 designs whose beam cannot stop the block (a free thin beam under a heavy block bends on until
 it would pass its supports, which the model does not represent): they report "time limit".
 """
