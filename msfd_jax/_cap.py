@@ -17,9 +17,11 @@ taken up by the rigid-plastic resistances of the two structures, which act in se
   stopped in a quarter period, t_string = pi/2 sqrt(M L_b / n_pb)), taking the shorter time;
 - a beam weaker than the ring goes first and alone: t_beam(v0).
 
-t_stop = max(t_ring + t_beam(v1), t_beam(v0)). The floor is the former fixed cap (10), so a
-design that stopped before it runs exactly as before (same clock, steps and histories; the
-showcase's t_stop is 1.96 and it ends at 3.28). CAP_FACTOR and CAP_MARGIN are set from the
+t_stop = max(t_ring + t_beam(v1), t_beam(v0)). The floor is the former fixed cap (10): a design
+whose cap is the floor runs exactly as before (same clock, steps and histories; the
+showcase's t_stop is 1.96 and it ends at 3.28); one with a larger cap keeps the floor's step
+grid (`_engine.make_clock`), so if it stops before 10 it takes the same steps, only its
+history samples spread over [0, cap]. CAP_FACTOR and CAP_MARGIN are set from the
 reliability benchmark: with the former fixed cap, 99 % of the settled designs ended by
 3.25 t_stop + 2 (reliability_before.json); with this cap none of 300 designs reached it
 (benchmarks/results/reliability.md). The estimate is pessimistic for free thin beams (t_stop
