@@ -15,6 +15,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from ._laws import contact_energy, contact_spring, elastic_plastic
+from ._safe import unwrap_near
 from ._scene import Scene
 
 
@@ -89,6 +90,7 @@ def respond(scene: Scene, xs, rotation_p, strain_p, permanent_set) -> Response:
     ):
         stiffness, weight = c.joint_stiffness_and_weight()
         s = c.section
+        angle = unwrap_near(angle, rp)  # a fold past pi: no jump (issue 12)
         m, rp1, d_rot = elastic_plastic(
             angle, rp, stiffness, s.plastic_moment, scene.yield_smoothing
         )

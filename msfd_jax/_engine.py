@@ -28,8 +28,10 @@ from ._collapse_forces import collapse_energy, collapse_pair_force, collapse_res
 from ._flat import COLLAPSE_LAYOUTS, FlatScene, PairLayout
 from ._laws import contact_energy, contact_spring, elastic_plastic
 from ._results import RESULTS
-from ._safe import atan2, safe_norm
+from ._safe import atan2, safe_norm, unwrap_near
 
+FOLD_LIMIT = float(np.pi)  # plastic joint rotation at which a run stops (bars folded through)
+GRID_SPAN = 10.0  # the grid of a derived cap: that of the former fixed cap (= _cap.T_MAX_FLOOR)
 _MIRROR = np.array([1.0, -1.0])[None, :, None]  # diag(1, -1) acting on (n, 2, B) vectors
 
 
@@ -72,21 +74,33 @@ class Clock(eqx.Module):
     dt0: Float[Array, " B"]
     n: Float[Array, " B"]
     t_max: Float[Array, " B"]
+    span: Float[Array, " B"]  # the grid's: t_max, or for a derived cap its floor (below)
     max_steps: Float[Array, " B"]  # diffrax steps allowed (Settings.max_steps)
     tolerance: Float[Array, " B"]  # settle_tolerance x K0
     k0: Float[Array, " B"]
 
 
-def make_clock(flat: FlatScene, dt, settings, max_steps) -> Clock:
-    """The clocks of a batch: `dt` (B,) the Verlet step, numbers from `settings`."""
+def make_clock(flat: FlatScene, dt, settings, max_steps, t_max=None) -> Clock:
+    """The clocks of a batch: `dt` (B,) the Verlet step, numbers from `settings`.
+
+    `t_max` (B,), when given, is each collision's cap (the derived caps of
+    ``Settings(t_max=None)``, `msfd_jax._cap`); otherwise ``settings.t_max`` for all. A derived
+    cap keeps the grid of its floor (`span` = 10: step k ends at 10 k / n, continued past 10
+    up to the cap), so a collision that stops before 10 takes exactly the steps it took with
+    the former fixed cap.
+    """
     dt0 = dt * settings.substeps
-    t_max = jnp.broadcast_to(jnp.asarray(settings.t_max, float), dt0.shape)
-    n = jnp.ceil(t_max / jnp.nextafter(dt0, jnp.inf))
+    derived = t_max is not None
+    t_max = settings.t_max if t_max is None else t_max
+    t_max = jnp.broadcast_to(jnp.asarray(t_max, float), dt0.shape)
+    span = jnp.minimum(t_max, GRID_SPAN) if derived else t_max
+    n = jnp.ceil(span / jnp.nextafter(dt0, jnp.inf))
     k0 = flat.initial_kinetic_energy
     return Clock(
         dt0,
         n,
         t_max,
+        span,
         jnp.broadcast_to(jnp.asarray(max_steps, float), dt0.shape),
         settings.settle_tolerance * k0,
         k0,
@@ -164,6 +178,7 @@ def _chain_response(flat: FlatScene, c, x, rotation_p, strain_p):
         return _nodal(grad_bar), rotation_p[c.joint : c.joint], strain1, 0.0, axial
     (ax, ay, bx, by), angle = _joints(flat, c, bars)
     sl_j = slice(c.joint, c.joint + c.n_joints)
+    angle = unwrap_near(angle, rotation_p[sl_j])  # a fold past pi: no jump (issue 12)
     k, w = flat.joint_stiffness[sl_j], flat.joint_weight[sl_j]
     moment, rotation1, d_rot = elastic_plastic(
         angle, rotation_p[sl_j], k, flat.plastic_moment[sl_j], ys
@@ -290,6 +305,7 @@ def elastic_energy(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> F
         if c.n_joints:
             _, angle = _joints(flat, c, bars)
             sl_j = slice(c.joint, c.joint + c.n_joints)
+            angle = unwrap_near(angle, rotation_p[sl_j])
             k, w = flat.joint_stiffness[sl_j], flat.joint_weight[sl_j]
             energy = energy + 0.5 * jnp.sum(w * k * (angle - rotation_p[sl_j]) ** 2, axis=0)
     for p, gap, k, ps in zip(flat.pairs, flat.gap, flat.stiffness, permanent_set, strict=True):
@@ -406,8 +422,10 @@ def advance(flat: FlatScene, clock: Clock, s: BatchState, substeps: int, rule) -
     """One diffrax step of every collision not yet stopped: `substeps` Verlet steps on its own
     grid, then its stopping rule (`rule`: the Settings numbers). Stopped ones stay frozen."""
     k = s.k + 1.0
-    t_next = jnp.where(k == 1.0, clock.dt0, clock.t_max * (k / clock.n))
-    t_next = jnp.where(k >= clock.n, clock.t_max, t_next)
+    t_next = jnp.where(k == 1.0, clock.dt0, clock.span * (k / clock.n))
+    # the cap: the grid's end (as diffrax's), or a derived cap past its floor's grid
+    capped = jnp.where(clock.span < clock.t_max, t_next >= clock.t_max, k >= clock.n)
+    t_next = jnp.where(capped, clock.t_max, t_next)
     t0 = s.t
     h = (t_next - t0) / substeps
 
@@ -419,7 +437,10 @@ def advance(flat: FlatScene, clock: Clock, s: BatchState, substeps: int, rule) -
     y = eqx.tree_at(lambda q: q.elastic, y, elastic)
     err = energy_error(flat, y, clock.k0)
     non_finite = ~jnp.isfinite(err)
-    broken = non_finite | (jnp.abs(err) > rule.energy_guard)
+    # a joint folded past pi: its bars pass through each other, which the model (no contact
+    # of the ring with itself or the block) cannot follow; stopped as a broken run (issue 12)
+    folded = jnp.any(jnp.abs(y.plastic_rotation) > FOLD_LIMIT, axis=0)
+    broken = non_finite | (jnp.abs(err) > rule.energy_guard) | folded
     settled = jnp.zeros_like(broken)
     if rule.stop_when_settled:
         t = t_next
@@ -427,7 +448,6 @@ def advance(flat: FlatScene, clock: Clock, s: BatchState, substeps: int, rule) -
         apart = t - y.last_contact > rule.settle_window
         spent = jnp.sum(kinetic(flat, y.v), 0) + y.elastic <= rule.settle_residual * clock.k0
         settled = quiet & (apart | spent)
-    capped = k >= clock.n
     out_of_steps = k >= clock.max_steps
     stop = broken | settled | capped | out_of_steps
     code = jnp.where(

@@ -11,10 +11,11 @@ import jax
 import numpy as np
 
 from ._collapse import BlockFaceContact, SelfContact
+from ._engine import FOLD_LIMIT
 from ._export import compile_program
 from ._params import CollisionParams, Mesh, Scales
 from ._provenance import mesh_json, settings_json, versions
-from ._results import FAILED, RESULTS
+from ._results import BALANCE_TOLERANCE, FAILED, RESULTS
 from ._scene import Scene, ring_on_beam
 from ._si import design_quantities, motion_settings
 from ._simulate import (
@@ -23,6 +24,7 @@ from ._simulate import (
     _simulate,
     array_module,
     prepare,
+    resolve_cap,
 )
 
 # Issue 12 item 3: a run stopped by a guard for a reason a smaller step can fix (non-finite or
@@ -95,9 +97,9 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
     t = float(sol.t_end)
     dt, dt_crit = float(sol.dt), float(sol.dt_critical)
     if code == RESULTS.settled:
-        return f"settled: plastic dissipation stopped; ended at tau = {t:.4g}"
+        return f"settled: plastic dissipation stopped; ended at tau = {t:.4g}" + _balance(sol)
     if code == RESULTS.time_limit:
-        return f"reached the time cap tau = {t:.4g} (dissipation had not stopped)"
+        return f"reached the time cap tau = {t:.4g} (dissipation had not stopped)" + _balance(sol)
     if code == RESULTS.max_steps:
         return (
             f"stopped at tau = {t:.4g} after the maximum number of steps ({int(sol.steps)}); "
@@ -138,6 +140,14 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
     what = "became non-finite" if code == RESULTS.non_finite else "broke its energy balance"
     err = float(sol.energy_balance_error) if code == RESULTS.energy_balance_broken else float("nan")
     detail = f" (error {err:.3g} K0)" if code == RESULTS.energy_balance_broken else ""
+    fold = _folded(sol, scene) if code == RESULTS.energy_balance_broken else ""
+    if fold and np.isfinite(err):  # the fold guard (`_engine.FOLD_LIMIT`), not the balance
+        return (
+            f"the solve stopped at tau = {t:.4g} (energy balance error {err:.3g} K0): a "
+            f"{fold.removeprefix('; warning: ')}; the model has no contact of the ring with "
+            "itself or the block to stop such a fold; remedy: the impact is beyond what the "
+            "discrete model represents: lower the velocity or the mass; a smaller dt does not help"
+        )
     return (
         f"the solve {what}{detail} at tau = {t:.4g} in the {place}; likely cause: {cause}; "
         f"remedy: {remedy}"
@@ -156,6 +166,43 @@ def smaller_step(settings: Settings) -> Settings:
     if settings.dt is None:
         return dataclasses.replace(settings, safety=settings.safety * RETRY_FACTOR)
     return dataclasses.replace(settings, dt=settings.dt * RETRY_FACTOR)
+
+
+def balance_warning(solution: Solution):
+    """True where a run reports success (settled, time limit) but its energy balance closes
+    only to worse than `BALANCE_TOLERANCE` K0 (arrays; batched if the solution is)."""
+    result = np.asarray(solution.result)
+    success = (result == RESULTS.settled) | (result == RESULTS.time_limit)
+    return success & (np.abs(np.asarray(solution.energy_balance_error)) > BALANCE_TOLERANCE)
+
+
+def _balance(sol: Solution) -> str:
+    """The message's suffix for a successful run whose balance is not closed to tolerance."""
+    if not bool(balance_warning(sol)):
+        return ""
+    err = abs(float(sol.energy_balance_error))
+    return (
+        f"; balance {err:.1e} K0 (above {BALANCE_TOLERANCE:g}: fractions uncertain by about "
+        "that much; a smaller Settings.safety or contact_smoothing may close it)"
+    )
+
+
+def _folded(sol: Solution, scene: Scene) -> str:
+    """Which joint has folded past `FOLD_LIMIT` (pi: its bars through each other), if any.
+
+    The joint angle is continuous past pi (`_safe.unwrap_near`), so the energy balance holds,
+    but the bars then overlap: the model has no ring-on-ring or ring-on-block contact to stop
+    it, so the engine stops the run there (result 3, this message).
+    """
+    for c, rotation in zip(scene.chains, sol.final.plastic_rotation, strict=True):
+        rotation = np.abs(np.asarray(rotation))
+        if rotation.size and rotation.max() > FOLD_LIMIT:
+            k = int(np.argmax(rotation))
+            return (
+                f"; warning: {c.name} joint at node {c.joint_nodes[k]} folded by "
+                f"{rotation[k]:.2f} rad, past pi (its bars through each other)"
+            )
+    return ""
 
 
 def _degenerate(sol: Solution, scene: Scene) -> str | None:
@@ -227,6 +274,12 @@ class Collision:
         return float(self.solution.dt) / float(self.solution.dt_critical)
 
     @property
+    def balance_warning(self) -> bool:
+        """True if the run reports success but closes its energy balance only to worse than
+        `BALANCE_TOLERANCE` (1e-4) K0 (its message then says how far)."""
+        return bool(balance_warning(self.solution))
+
+    @property
     def message(self) -> str:
         text = diagnose(self.solution, self.scene)
         if not self.retries:
@@ -257,6 +310,8 @@ class Collision:
             "message": self.message,
             "retries": self.retries,
             "safety": self.safety,
+            "balance_warning": self.balance_warning,
+            "t_max": float(self.solution.ts[-1]),  # the cap used (derived when t_max is None)
             "wall_time_s": self.wall_time_s,
             "compile_time_s": self.compile_time_s,
             "params": {
@@ -324,7 +379,10 @@ def run(
     )
     if scales is not None and not isinstance(scales, Scales):
         raise TypeError(f"scales must be a msfd_jax.Scales (from from_si), got {scales!r}")
-    solved = settings if scales is None else motion_settings(settings)
+    solved = settings
+    if scales is not None:  # positions at every history sample over [0, the cap]
+        motion = motion_settings(resolve_cap(scene, settings))
+        solved = dataclasses.replace(motion, t_max=settings.t_max)
     solution, wall, compile_s = _solve_timed(scene, solved)
     retries, first = 0, None
     while retries < MAX_RETRIES and step_is_cause(

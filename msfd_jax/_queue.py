@@ -18,7 +18,9 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array
 
+from ._cap import time_cap
 from ._core import solve
 from ._dynamics import State
 from ._engine import BatchState, initial_state, kinetic, make_clock, pair_forces
@@ -31,11 +33,13 @@ DEFAULT_SLOTS = 64
 DEFAULT_SEGMENT = 64  # diffrax steps (x substeps Verlet steps) between refills
 
 
-def _scenes(params: CollisionParams, mesh: Mesh, smoothing) -> FlatScene:
-    """`smoothing`: (contact width, yield width, (smooth contact?, smooth yield?) static)."""
+def _scenes(params: CollisionParams, mesh: Mesh, smoothing) -> tuple[FlatScene, Array | None]:
+    """The batch's flat scene, and each collision's derived cap (None: no cap derived).
+
+    `smoothing`: (contact width, yield width, (smooth contact?, smooth yield?) static)."""
     contact, yield_, smooth = smoothing
     scenes = jax.vmap(lambda p: _ring_on_beam(p, mesh, contact, yield_, smooth))(params)
-    return batch_scenes(scenes)
+    return batch_scenes(scenes), jax.vmap(time_cap)(scenes)
 
 
 def with_flags(smoothing) -> tuple:
@@ -51,8 +55,9 @@ def _dt(dt_crit, settings: Settings):
 
 @eqx.filter_jit
 def _start(params, dt_crit, mesh, smoothing, settings, max_steps):
-    flat = _scenes(params, mesh, smoothing)
-    clock = make_clock(flat, _dt(dt_crit, settings), settings, max_steps)
+    flat, cap = _scenes(params, mesh, smoothing)
+    cap = cap if settings.t_max is None else None
+    clock = make_clock(flat, _dt(dt_crit, settings), settings, max_steps, cap)
     return flat, clock, initial_state(flat)
 
 
@@ -238,9 +243,10 @@ def solve_batch(
     """
     smoothing = with_flags((contact_smoothing, yield_smoothing))
     smoothing = (jnp.asarray(smoothing[0], float), jnp.asarray(smoothing[1], float), smoothing[2])
-    flat = _scenes(params, mesh, smoothing)
+    flat, cap = _scenes(params, mesh, smoothing)
     dt = _dt(jax.lax.stop_gradient(jnp.asarray(dt_critical, float)), settings)
-    clock = make_clock(flat, dt, settings, max_steps)
+    cap = jax.lax.stop_gradient(cap) if settings.t_max is None else None
+    clock = make_clock(flat, dt, settings, max_steps, cap)
     sol = solve(flat, clock, initial_state(flat), settings, max_steps=max_steps, adjoint=adjoint)
     y = jax.tree_util.tree_map(lambda a: a[-1], sol.ys)
     k0 = clock.k0

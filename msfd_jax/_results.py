@@ -45,6 +45,10 @@ class RESULTS(enum.IntEnum):
         return self in FAILED
 
 
+# A run that reports success (settled, time limit) closes its energy balance within this
+# fraction of K0, or says it does not: `balance_warning` and a suffix of its message (issue 12).
+BALANCE_TOLERANCE = 1e-4
+
 # Aliases kept for the former ``range(5)`` constants and the name tuple.
 FAILED = (RESULTS.non_finite, RESULTS.energy_balance_broken, RESULTS.max_steps)
 RESULT_NAMES = tuple(r.status for r in RESULTS)

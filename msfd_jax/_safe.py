@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import jax
 import jax.numpy as jnp
 
 
@@ -59,3 +60,17 @@ def atan2(y, x):
     t = jnp.where(x < 0, jnp.where(y >= 0, t + math.pi, t - math.pi), t)
     axis = jnp.where(y > 0, math.pi / 2, jnp.where(y < 0, -math.pi / 2, 0.0))
     return jnp.where(x == 0, axis, t)
+
+
+def unwrap_near(angle, centre):
+    """`angle` shifted by the multiple of 2 pi that brings it within pi of `centre`.
+
+    A joint angle is atan2 of its bars, in (-pi, pi]: a joint that folds past pi would jump by
+    -2 pi, and its return mapping would book a plastic rotation (and a dissipation m_p 2 pi)
+    that never happened (issue 12). Measured from its plastic rotation, whose elastic
+    difference stays below m_p / k << pi, the angle is continuous. Where no shift is needed the
+    angle is returned unchanged to the bit (a zero is subtracted), so results that never fold
+    that far are unchanged.
+    """
+    turns = jnp.round((angle - centre) / (2.0 * jnp.pi))
+    return angle - (2.0 * jnp.pi) * jax.lax.stop_gradient(turns)

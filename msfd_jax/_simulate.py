@@ -19,6 +19,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from . import _export
+from ._cap import time_cap
 from ._core import chain_state, history_of, solve
 from ._dynamics import State, critical_step
 from ._engine import BatchState, make_clock
@@ -48,7 +49,10 @@ class Settings(eqx.Module):
       reference with a 30 % margin on the collisions of docs/accuracy.md (re-chosen after
       the contact fix of issue 9; it was 0.6).
     - `dt`: a fixed step that overrides `safety` (non-dimensional time).
-    - `t_max`: cap on the run length. `t_min`: never stop before this.
+    - `t_max`: cap on the run length; None (the default) derives each collision's cap from
+      its inputs (`msfd_jax._cap.time_cap`: 3 x the time the structures' collapse loads take
+      to stop the block, + 2, within [10, 100]; 10 for every design that stopped before the
+      former fixed cap of 10). A number is an explicit cap. `t_min`: never stop before this.
     - `settle_window`, `settle_tolerance`, `settle_residual`: the stopping rule. A run ends
       when the dissipation has grown by less than `settle_tolerance` K0 for `settle_window`
       and, besides, the contact has been open for `settle_window` or the kinetic plus elastic
@@ -56,7 +60,13 @@ class Settings(eqx.Module):
     - `stop_when_settled`: False runs to `t_max` (driven, quasi-static scenes).
     - `history_points`: samples of the energy/contact histories over [0, t_max].
     - `shape_times`: times at which node positions are saved.
-    - `energy_guard`: stop when |energy balance error| exceeds this fraction of K0.
+    - `energy_guard`: stop when |energy balance error| exceeds this fraction of K0 (0.05:
+      kept after issue 12's reliability benchmark, docs/stability.md: once joint folds past pi
+      no longer book spurious dissipation, what a successful run leaves open above 1e-4 K0 is
+      the sharp contact at the default step in slow, light impacts, up to ~4e-2 K0 of a small
+      K0, which a smaller step closes; such runs keep their status with `balance_warning` and
+      a message saying how far the balance is open, while an unstable step or a collapse the
+      model cannot follow still trips the guard).
     - `max_steps`: static bound on the number of diffrax steps (None: from t_max / dt).
     - `substeps`: Verlet steps per diffrax step (histories are interpolated linearly between
       diffrax steps, and the stopping rule is checked once per diffrax step).
@@ -64,7 +74,7 @@ class Settings(eqx.Module):
 
     safety: float = 0.7
     dt: float | None = None
-    t_max: float = 10.0
+    t_max: float | None = None
     t_min: float = 0.2
     settle_window: float = 0.5
     settle_tolerance: float = 1e-5
@@ -79,7 +89,6 @@ class Settings(eqx.Module):
     def __check_init__(self):
         ranges = dict(
             safety=(0.0, 10.0, False, True),
-            t_max=(0.0, 1.0e4, False, True),  # beyond, float64 time loses the step's digits
             t_min=(0.0, 1.0e4, True, True),
             settle_window=(0.0, 1.0e4, False, True),
             settle_tolerance=(0.0, 1.0, True, True),
@@ -89,6 +98,9 @@ class Settings(eqx.Module):
         for name, bounds in ranges.items():
             _check_value(name, getattr(self, name), *bounds)
             _check_scalar(name, getattr(self, name))
+        if self.t_max is not None:  # beyond 1e4, float64 time loses the step's digits
+            _check_value("t_max", self.t_max, 0.0, 1.0e4, False, True)
+            _check_scalar("t_max", self.t_max)
         if self.dt is not None:
             _check_value("dt", self.dt, 0.0, 1.0e3, False, True)
             _check_scalar("dt", self.dt)
@@ -167,10 +179,25 @@ def step_size(scene: Scene, settings: Settings, dt_critical=None):
     return dt, dt_crit
 
 
+def resolve_cap(scene: Scene, settings: Settings) -> Settings:
+    """`settings` with ``t_max=None`` replaced by the scene's derived cap (`time_cap`).
+
+    A concrete scene gives a Python float (so the step bound and histories follow from it);
+    a traced one (under jit/vmap) a traced cap, with `Settings.max_steps` then needed.
+    """
+    if settings.t_max is not None:
+        return settings
+    cap = jax.lax.stop_gradient(time_cap(scene))  # a cap, not a design output
+    if not isinstance(cap, jax.core.Tracer):
+        cap = float(cap)
+    return dataclasses.replace(settings, t_max=cap)
+
+
 def max_steps_for(scene: Scene, settings: Settings) -> int:
     """Static step bound: t_max / dt rounded up to a power of two (few recompilations)."""
     if settings.max_steps is not None:
         return settings.max_steps
+    settings = resolve_cap(scene, settings)
     if settings.dt is None:
         dt_critical = _export.call(_critical_step, scene, name="critical_step")
         values = (dt_critical, settings.safety, settings.t_max)
@@ -192,10 +219,15 @@ def _simulate(
     # collision's own physical time, so histories and shapes are saved at physical times
     flat = flatten(scene)
     dt, dt_crit = step_size(scene, settings, dt_critical)
-    clock = make_clock(flat, dt[None], settings, max_steps)
+    # t_max=None: this collision's derived cap, on its floor's grid (`make_clock`)
+    cap = None if settings.t_max is None else settings.t_max
+    if cap is None:
+        cap = jax.lax.stop_gradient(time_cap(scene))
+    derived = None if settings.t_max is not None else cap[None]
+    clock = make_clock(flat, dt[None], settings, max_steps, derived)
     y0 = engine_initial_state(flat)
     k0 = clock.k0[0]
-    ts = jnp.linspace(0.0, settings.t_max, settings.history_points)
+    ts = jnp.linspace(0.0, cap, settings.history_points)
     shape_ts = jnp.asarray(sorted({0.0, *settings.shape_times}), float)
     saveat = diffrax.SaveAt(
         subs=[
@@ -285,9 +317,10 @@ def prepare(scene: Scene, settings: Settings, adjoint=None, dt_critical=None) ->
     cache) ahead of the run, so that `run` can time compilation and the run apart.
     """
     adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
-    if not isinstance(settings.t_max, jax.core.Tracer):
+    cap = resolve_cap(scene, settings).t_max  # t_max stays None: _simulate derives it again
+    if not isinstance(cap, jax.core.Tracer):
         # shape times past the cap are dropped (a short run keeps the default times it reaches)
-        kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
+        kept = tuple(t for t in settings.shape_times if t <= float(cap))
         settings = dataclasses.replace(settings, shape_times=kept)
     # numbers as arrays, so that a new t_max or dt does not compile a new program
     settings = jax.tree_util.tree_map(_as_float64, settings)

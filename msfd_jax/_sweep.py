@@ -24,9 +24,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._cap import T_MAX_CEILING, time_cap
 from ._cluster import solve_on_cluster
 from ._dynamics import critical_step
-from ._outputs import FRACTION_KEYS, diagnose, fractions
+from ._outputs import FRACTION_KEYS, balance_warning, diagnose, fractions
 from ._params import CollisionParams, Mesh, validate
 from ._progress import SweepProgress as _SweepProgress
 from ._provenance import mesh_json
@@ -51,6 +52,7 @@ SOLVED_OUTPUTS = (
     "k0",
     "result",
     "status",
+    "balance_warning",
     "message",
     "wall_time_s",
 )
@@ -302,11 +304,11 @@ def _solve_collisions(
     # every stability limit first (a small vmapped program): one step bound for all chunks,
     # and the sharded solver then needs no eigen-solve inside its devices' programs
     note("stability limits")
-    columns["_dt_critical"] = np.concatenate(
-        [_run_chunk(_critical_chunk, columns, c, chunk_size, mesh, smoothing) for c in chunks]
-    )
+    limits = [_run_chunk(_critical_chunk, columns, c, chunk_size, mesh, smoothing) for c in chunks]
+    columns["_dt_critical"] = np.concatenate([d for d, _ in limits])
+    caps = np.concatenate([c for _, c in limits])  # the derived caps (Settings.t_max None)
     if settings.max_steps is None:
-        bound = step_bound(columns["_dt_critical"], settings)
+        bound = step_bound(columns["_dt_critical"], settings, caps)
         settings = dataclasses.replace(settings, max_steps=bound)
     note("collisions")
     if devices:  # the chunked, sharded path: each device runs its part of a chunk
@@ -356,15 +358,20 @@ def _layout_scene(mesh: Mesh):
     return _ring_on_beam(CollisionParams().as_arrays(), mesh, jnp.zeros(()), jnp.zeros(()))
 
 
-def step_bound(dt_critical: np.ndarray, settings: Settings) -> int:
+def step_bound(dt_critical: np.ndarray, settings: Settings, caps=None) -> int:
     """`max_steps` for the smallest step of a sweep, rounded as `simulate` rounds it.
 
     t_max / (dt x substeps) diffrax steps, dt = safety x dt_crit (or `Settings.dt`), with 2 %
     and 16 steps of margin, rounded up to a power of two (>= 256) so that sweeps of similar
     designs share one compiled program (the same rule as ``_simulate.max_steps_for``).
+    With ``Settings(t_max=None)`` t_max is each collision's derived cap `caps` (without them,
+    the largest cap, `T_MAX_CEILING`).
     """
     dt = np.asarray(dt_critical) * float(settings.safety) if settings.dt is None else settings.dt
-    steps = float(np.max(float(settings.t_max) / (np.asarray(dt) * settings.substeps)))
+    t_max = settings.t_max
+    if t_max is None:
+        t_max = T_MAX_CEILING if caps is None else np.asarray(caps, np.float64)
+    steps = float(np.max(np.asarray(t_max, np.float64) / (np.asarray(dt) * settings.substeps)))
     if not math.isfinite(steps):
         raise ValueError(f"the stability limit of a collision is not finite: {dt_critical}")
     return 2 ** max(8, math.ceil(math.log2(1.02 * steps + 16)))
@@ -373,8 +380,9 @@ def step_bound(dt_critical: np.ndarray, settings: Settings) -> int:
 def _sweep_settings(settings: Settings) -> Settings:
     # shape times past the cap dropped as `simulate` does (it cannot under jit); numbers as
     # arrays so that filter_jit traces them (a new t_max or safety compiles nothing new)
-    kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
-    settings = dataclasses.replace(settings, shape_times=kept)
+    if settings.t_max is not None:
+        kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
+        settings = dataclasses.replace(settings, shape_times=kept)
     return jax.tree_util.tree_map(_as_float64, settings)
 
 
@@ -423,7 +431,8 @@ def _run_chunk(function, columns, rows: range, chunk_size: int, *args):
 @eqx.filter_jit
 def _critical_chunk(params: CollisionParams, mesh: Mesh, smoothing):
     def one(p):
-        return critical_step(ring_on_beam(p, mesh, contact_smoothing=smoothing[0]))
+        scene = ring_on_beam(p, mesh, contact_smoothing=smoothing[0])
+        return critical_step(scene), time_cap(scene)
 
     return jax.vmap(one)(params)
 
@@ -489,6 +498,7 @@ def _rows(outputs: dict, solution, mesh: Mesh, wall: float) -> dict[str, np.ndar
     out["steps"] = np.asarray(solution.steps, np.int64)
     out["result"] = np.asarray(solution.result, np.int64)
     out["status"] = np.asarray([RESULTS(c).status for c in out["result"]], dtype=str)
+    out["balance_warning"] = np.asarray(balance_warning(solution), np.int64)
     out["message"] = np.asarray([diagnose(solution, scene, i) for i in range(n)], dtype=str)
     # a chunk runs as one batch: each collision is given an equal share of its wall time
     out["wall_time_s"] = np.full(n, wall / n)

@@ -17,7 +17,7 @@ import numpy as np
 from ._results import FAILED
 
 TEXT_COLUMNS = ("status", "message")
-INTEGER_COLUMNS = ("steps", "result", "retries")
+INTEGER_COLUMNS = ("steps", "result", "retries", "balance_warning")  # balance_warning: 0/1
 
 
 @dataclasses.dataclass

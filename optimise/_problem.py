@@ -21,6 +21,7 @@ import jax
 import jax.numpy as jnp
 
 import msfd_jax as m
+from msfd_jax._cap import time_cap
 from msfd_jax._simulate import max_steps_for
 
 from ._conditions import Conditions, expectation
@@ -75,15 +76,18 @@ def make_problem(
     block's mass), so `max_steps` is the largest bound that `msfd_jax` would choose at any
     corner of the box and any sample of `conditions`, unless given.
     """
+    corners = box.corners() if box is not None else []
+    designs = [d.apply(params) for d in corners] or [params]
+    if conditions is not None:
+        designs = [conditions.apply(p, i) for p in designs for i in range(len(conditions))]
+    if settings.t_max is None:  # one cap for the problem: the largest derived cap of its box
+        cap = max(float(time_cap(m.ring_on_beam(p, mesh))) for p in designs)
+        settings = dataclasses.replace(settings, t_max=cap)
     kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
     settings = dataclasses.replace(settings, shape_times=kept)
     if lean:
         settings = dataclasses.replace(settings, history_points=2, shape_times=())
     if settings.max_steps is None:
-        corners = box.corners() if box is not None else []
-        designs = [d.apply(params) for d in corners] or [params]
-        if conditions is not None:
-            designs = [conditions.apply(p, i) for p in designs for i in range(len(conditions))]
         steps = max(max_steps_for(m.ring_on_beam(p, mesh), settings) for p in designs)
         settings = dataclasses.replace(settings, max_steps=steps)
     elif conditions is not None:

@@ -20,6 +20,7 @@ import numpy as np
 
 import msfd_jax as m
 from msfd_jax import _export
+from msfd_jax._cap import T_MAX_FLOOR
 from msfd_jax._progress import LineProgress  # noqa: F401 (for optimise: msfd tune)
 
 EXIT_OK, EXIT_USAGE, EXIT_SOLVE = 0, 2, 3
@@ -175,7 +176,11 @@ def add_numerics_arguments(parser: argparse.ArgumentParser) -> None:
         "--dt", type=float, help="fixed time step (overrides --safety; default: from --safety)"
     )
     group.add_argument(
-        "--t-max", type=float, default=settings.t_max, help="cap on tau (default %(default)s)"
+        "--t-max",
+        type=float,
+        default=settings.t_max,
+        help="cap on tau (default: derived from the inputs, 3 x the time the collapse loads "
+        "take to stop the block + 2, within [10, 100])",
     )
     group.add_argument(
         "--history-points",
@@ -246,10 +251,16 @@ def _times(text: str) -> tuple[float, ...]:
 def settings_from_args(args: argparse.Namespace) -> m.Settings:
     m.Settings(t_max=args.t_max, shape_times=())  # t_max first: shape times are judged by it
     shape_times = args.shape_times
+    # a derived cap (t_max None) is at least its floor: times up to it are always reached
+    reached = T_MAX_FLOOR if args.t_max is None else args.t_max
     if shape_times is None:  # the paper's times (Fig. 13b) that fall inside the run
-        shape_times = tuple(t for t in m.Settings().shape_times if t <= args.t_max)
-    elif any(t > args.t_max for t in shape_times):  # asked for explicitly: refuse, not drop
-        raise ValueError(f"shape_times {shape_times} must lie in [0, t_max = {args.t_max}]")
+        shape_times = tuple(t for t in m.Settings().shape_times if t <= reached)
+    elif any(t > reached for t in shape_times):  # asked for explicitly: refuse, not drop
+        cap = f"t_max = {args.t_max}" if args.t_max is not None else "the derived cap >= 10"
+        raise ValueError(
+            f"shape_times {shape_times} must lie in [0, {cap}]"
+            + ("; give --t-max for later times" if args.t_max is None else "")
+        )
     return m.Settings(
         safety=args.safety,
         dt=args.dt,

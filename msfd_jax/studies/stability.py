@@ -115,15 +115,16 @@ CATALOGUE: tuple[StabilityScene, ...] = (
     ),
     _S("thick_beam", "h_b/h_r = 10: nearly rigid beam", {"thickness_ratio": 10.0}),
     _S("slow_impact", "v0 = 0.05: barely plastic impact", {"velocity": 0.05}),
-    # v0 = 5 crushes a ring bar axially (perfectly plastic in compression, nothing resists
-    # the collapse): beyond what the discrete model represents, whatever the step. The run
-    # must be stopped by the energy guard with a message naming the crushed bar (diagnose).
+    # v0 = 5 folds the ring back past pi at the block (joint 15) while crushing a ring bar:
+    # beyond what the discrete model represents, whatever the step. Until issue 12 the fold
+    # wrapped the joint angle and the spurious 2 pi m_p tripped the energy guard (the message
+    # then named the crushed bar); now the fold guard stops it at the same tau, naming the fold.
     _S(
         "fast_impact",
-        "v0 = 5: six times the showcase speed (crushes a ring bar: must stop, naming it)",
+        "v0 = 5: six times the showcase speed (folds the ring past pi: must stop, naming it)",
         {"velocity": 5.0},
         expect=STOPPED,
-        cause="crushed",
+        cause="past pi",
     ),
     _S(
         "fast_impact_small_step",
@@ -131,7 +132,7 @@ CATALOGUE: tuple[StabilityScene, ...] = (
         {"velocity": 5.0},
         step_factor=0.1,
         expect=STOPPED,
-        cause="crushed",
+        cause="past pi",
     ),
     # issue 12: the same impact with the collapse contacts (ring on block face, ring on ring)
     _S(

@@ -1,0 +1,179 @@
+"""Reliability over random designs (issue 12 item 5): status counts and energy balance errors.
+
+Random designs, log-uniform over h_b/h_r 0.2-8, g 0.5-200, v0 0.05-3, E/Y 100-2000,
+R/h_r 5-40, and free or held (axial_constraint 0/1 with equal odds), one `numpy` generator per
+seed, run through `msfd_jax.sweep` (the queue engine) on the paper's mesh with the sweep's
+default settings. Prints and writes ``benchmarks/results/reliability.{json,md}``: counts by
+status per seed and in all, the distribution of |energy balance error| / K0 among the runs
+that report success (settled, time limit), the time per row, and the worst rows with their
+inputs. ``--quick`` runs the small test mesh (6, 8 + 2) with fewer rows and writes
+``reliability_quick.{json,md}``.
+
+    taskset -c 1 python benchmarks/reliability.py --seeds 0 1 2 --n 200
+    taskset -c 1 python benchmarks/reliability.py --quick
+    taskset -c 1 python benchmarks/reliability.py --t-max 10   # the former fixed cap
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+import msfd_jax as m
+from msfd_jax._provenance import now, versions
+from msfd_jax._sweep import SWEEP_SETTINGS, sweep
+
+RESULTS = Path(__file__).parent / "results"
+RANGES = {  # log-uniform
+    "thickness_ratio": (0.2, 8.0),
+    "mass_ratio": (0.5, 200.0),
+    "velocity": (0.05, 3.0),
+    "modulus_ratio": (100.0, 2000.0),
+    "slenderness": (5.0, 40.0),
+}
+SUCCESS = ("settled", "time limit")
+QUANTILES = (0.5, 0.9, 0.99, 1.0)
+SHOWN = ("thickness_ratio", "mass_ratio", "velocity", "modulus_ratio", "slenderness")
+
+
+def designs(seed: int, n: int) -> list[dict[str, float]]:
+    """`n` random designs of one seed (the same list for the same seed and n)."""
+    rng = np.random.default_rng(seed)
+    cols = {k: np.exp(rng.uniform(np.log(lo), np.log(hi), n)) for k, (lo, hi) in RANGES.items()}
+    cols["axial_constraint"] = rng.integers(0, 2, n).astype(float)
+    return [{k: float(v[i]) for k, v in cols.items()} for i in range(n)]
+
+
+def run_seed(seed: int, n: int, mesh: m.Mesh, settings: m.Settings) -> list[dict]:
+    rows = designs(seed, n)
+    tick = time.perf_counter()
+    table = sweep(rows, mesh, settings)
+    wall = time.perf_counter() - tick
+    out = []
+    for i, row in enumerate(table.rows()):
+        keep = {k: row[k] for k in (*rows[i], "status", "energy_balance_error", "t_end")}
+        keep.update(seed=seed, index=i, k0=row["k0"], steps=row["steps"])
+        keep.update(wall_time_s=row["wall_time_s"], message=row["message"])
+        keep["balance_warning"] = bool(row.get("balance_warning", False))
+        out.append(keep)
+    print(f"seed {seed}: {n} rows in {wall:.1f} s (compile included)", flush=True)
+    return out
+
+
+def summary(rows: list[dict]) -> dict:
+    statuses = sorted({r["status"] for r in rows})
+    ok = [r for r in rows if r["status"] in SUCCESS]
+    err = np.asarray([abs(r["energy_balance_error"]) for r in ok])
+    wall = np.asarray([r["wall_time_s"] for r in rows])
+    return {
+        "rows": len(rows),
+        "status": {s: sum(r["status"] == s for r in rows) for s in statuses},
+        "success": len(ok),
+        "balance_quantiles": {str(q): float(np.quantile(err, q)) for q in QUANTILES}
+        if len(err)
+        else {},
+        "above_1e-4": int(np.sum(err > 1e-4)),
+        "above_1e-3": int(np.sum(err > 1e-3)),
+        "success_above_1e-4_unflagged": sum(
+            abs(r["energy_balance_error"]) > 1e-4 and not r["balance_warning"] for r in ok
+        ),
+        "flagged": sum(r["balance_warning"] for r in rows),
+        "wall_per_row_s": {"mean": float(wall.mean()), "max": float(wall.max())},
+        "t_end_max": float(max(r["t_end"] for r in rows)),
+    }
+
+
+def markdown(record: dict) -> str:
+    per = record["per_seed"]
+    statuses = sorted({s for v in [*per.values(), record["total"]] for s in v["status"]})
+    lines = [
+        "# Reliability over random designs",
+        "",
+        f"`{record['command']}` ({record['date']}, {record['machine']}; "
+        f"{record['mesh']}, settings {record['settings']}).",
+        "",
+        "Log-uniform h_b/h_r 0.2-8, g 0.5-200, v0 0.05-3, E/Y 100-2000, R/h_r 5-40; free or "
+        "held with equal odds. Balance errors |(K + U + D - K0)/K0| are over the runs that "
+        "report success (settled or time limit); *flagged* rows carry `balance_warning`.",
+        "",
+        "| seed | rows | " + " | ".join(statuses) + " | success > 1e-4 K0 | > 1e-3 K0 | "
+        "unflagged > 1e-4 | median | 99 % | max | s/row mean | s/row max |",
+        "|---" * (len(statuses) + 11) + "|",
+    ]
+    for name, s in [*per.items(), ("all", record["total"])]:
+        q = s["balance_quantiles"]
+        cells = [name, s["rows"], *[s["status"].get(k, 0) for k in statuses]]
+        cells += [s["above_1e-4"], s["above_1e-3"], s["success_above_1e-4_unflagged"]]
+        cells += [f"{q.get(k, float('nan')):.2g}" for k in ("0.5", "0.99", "1.0")]
+        cells += [f"{s['wall_per_row_s']['mean']:.3f}", f"{s['wall_per_row_s']['max']:.3f}"]
+        lines.append("| " + " | ".join(str(c) for c in cells) + " |")
+    lines += ["", "## Worst rows", ""]
+    lines.append("| seed | row | " + " | ".join(SHOWN) + " | held | K0 | status | error / K0 | "
+                 "tau end | message |")  # fmt: skip
+    lines.append("|---" * (len(SHOWN) + 8) + "|")
+    for r in record["worst"]:
+        cells = [r["seed"], r["index"], *[f"{r[k]:.4g}" for k in SHOWN]]
+        cells += [int(r["axial_constraint"]), f"{r['k0']:.3g}", r["status"]]
+        cells += [f"{r['energy_balance_error']:+.2e}", f"{r['t_end']:.4g}", r["message"]]
+        lines.append("| " + " | ".join(str(c) for c in cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--n", type=int, default=None, help="rows per seed (200; quick 24)")
+    parser.add_argument("--quick", action="store_true", help="small mesh, 24 rows per seed")
+    parser.add_argument("--t-max", type=float, default=None, help="a fixed cap (default: auto)")
+    parser.add_argument("--worst", type=int, default=12, help="worst rows listed")
+    parser.add_argument("--name", default=None, help="output name (default reliability[_quick])")
+    args = parser.parse_args(argv)
+    n = args.n or (24 if args.quick else 200)
+    mesh = m.Mesh(6, 8, 2) if args.quick else m.Mesh()
+    settings = SWEEP_SETTINGS
+    if args.t_max is not None:
+        settings = dataclasses.replace(settings, t_max=args.t_max)
+    rows, per = [], {}
+    for seed in args.seeds:
+        part = run_seed(seed, n, mesh, settings)
+        rows += part
+        per[str(seed)] = summary(part)
+    worst = sorted(rows, key=lambda r: -abs(r["energy_balance_error"]))[: args.worst]
+    command = (
+        "taskset -c 1 python benchmarks/reliability.py --seeds "
+        + " ".join(map(str, args.seeds))
+        + f" --n {n}"
+        + (" --quick" if args.quick else "")
+        + (f" --t-max {args.t_max:g}" if args.t_max is not None else "")
+    )
+    record = {
+        "command": command,
+        "date": now(),
+        "machine": f"{platform.node()} ({platform.machine()}, cpu)",
+        "mesh": f"mesh {mesh.ring_segments}/{mesh.beam_contact_segments}+"
+        f"{mesh.beam_outer_segments}",
+        "settings": f"t_max {settings.t_max}, energy_guard {settings.energy_guard}, "
+        f"safety {settings.safety}",
+        "versions": versions(),
+        "per_seed": per,
+        "total": summary(rows),
+        "worst": worst,
+        "rows": rows,
+    }
+    name = args.name or ("reliability_quick" if args.quick else "reliability")
+    RESULTS.mkdir(exist_ok=True)
+    (RESULTS / f"{name}.json").write_text(json.dumps(record, indent=1) + "\n")
+    text = markdown(record)
+    (RESULTS / f"{name}.md").write_text(text)
+    print(text)
+    return record
+
+
+if __name__ == "__main__":
+    main()
