@@ -217,9 +217,12 @@ def source_hash() -> str:
 def _export(fn: Callable, dynamic: list, rebuild: Callable):
     """Trace `fn` once into a `jax.export.Exported` of array leaves, and its output template."""
     template = []
+    # the undecorated function: a filter_jit's cached trace may predate the CLI's switch of
+    # equinox's checks to NaN (EQX_ON_ERROR), and its host callbacks cannot be exported
+    inner = getattr(fn, "__wrapped__", fn)
 
     def flat(*arrays):
-        out = fn(*rebuild(arrays))
+        out = inner(*rebuild(arrays))
         leaves, treedef = jax.tree_util.tree_flatten(out)
         arrays_out, marks = [], []
         for x in leaves:
