@@ -398,6 +398,10 @@ class Reference:
         self.mb = np.asarray(beam.mass, dtype=np.float64)
         self.free_r = np.asarray(ring.free, dtype=np.float64)
         self.free_b = np.asarray(beam.free, dtype=np.float64)
+        if settings.t_max is None:
+            # the derived cap (issue 12) keeps the grid of the former fixed cap 10 and only
+            # extends it; the reference runs that grid with the cap resolved for this scene
+            settings = sim.resolve_cap(scene, settings)
         dt, dt_crit = sim.step_size(scene, settings)
         self.dt = float(dt)
         self.dt_critical = float(dt_crit)

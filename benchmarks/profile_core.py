@@ -51,7 +51,10 @@ def main() -> None:
     })  # fmt: skip
     zero = jnp.zeros(())
     build = eqx.filter_jit(
-        lambda p: batch_scenes(jax.vmap(lambda q: _ring_on_beam(q, m.Mesh(), zero, zero))(p))
+        # zero smoothing known ahead, as sweeps pass it: the sharp laws alone (static flags)
+        lambda p: batch_scenes(
+            jax.vmap(lambda q: _ring_on_beam(q, m.Mesh(), zero, zero, (False, False)))(p)
+        )
     )
     flat = build(p)
     y = _engine.initial_state(flat)

@@ -201,8 +201,9 @@ def _chain_response(flat: FlatScene, c, x, rotation_p, strain_p):
 
 
 def _total(a):
-    """Sum over every axis but the batch, as a matrix-vector product: XLA:CPU's reductions of
-    a fused expression over the major axes run ~2x slower than this (issue 11, measured)."""
+    """Sum over every axis but the batch, as a matrix-vector product. Written as a reduction
+    over the major axes, XLA:CPU fused it with the contact law into the step's two slowest
+    kernels (issue 11: a per-kernel trace of the substep at B = 64)."""
     if a.ndim == 1:
         return a
     flat = jnp.reshape(a, (-1, a.shape[-1]))
