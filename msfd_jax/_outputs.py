@@ -142,11 +142,19 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
     detail = f" (error {err:.3g} K0)" if code == RESULTS.energy_balance_broken else ""
     fold = _folded(sol, scene) if code == RESULTS.energy_balance_broken else ""
     if fold and np.isfinite(err):  # the fold guard (`_engine.FOLD_LIMIT`), not the balance
+        if any(isinstance(k, BlockFaceContact | SelfContact) for k in scene.contacts):
+            why = "the collapse contacts did not stop the fold"
+            remedy = "refine the ring (Mesh.ring_segments) or lower the velocity or the mass"
+        else:
+            why = "the model has no contact of the ring with itself or the block to stop it"
+            remedy = (
+                "model the collapse (Mesh(collapse_contacts=True), CLI --collapse-contacts) "
+                "or lower the velocity or the mass"
+            )
         return (
             f"the solve stopped at tau = {t:.4g} (energy balance error {err:.3g} K0): a "
-            f"{fold.removeprefix('; warning: ')}; the model has no contact of the ring with "
-            "itself or the block to stop such a fold; remedy: the impact is beyond what the "
-            "discrete model represents: lower the velocity or the mass; a smaller dt does not help"
+            f"{fold.removeprefix('; warning: ')}; {why}; remedy: {remedy}; a smaller dt "
+            "does not help"
         )
     return (
         f"the solve {what}{detail} at tau = {t:.4g} in the {place}; likely cause: {cause}; "
