@@ -191,7 +191,7 @@ CASES: tuple[Case, ...] = (
     _C("m.Settings(substeps=2.0)", "substeps", ">= 1", TypeError),
     _C("m.Settings(tmax=1.0)", "tmax", None, TypeError),
     _C(
-        "m.run(P(), SMALL, m.Settings(safety=5.0, **SHORT))",
+        "m.run(P(), SMALL, m.Settings(safety=10.0, **SHORT))",
         "safety",
         "stability limit",
         m.SimulationError,
@@ -336,7 +336,7 @@ CASES: tuple[Case, ...] = (
     _C("run --ring-segments=2.5", "--ring-segments", None, 2),
     _C("run --contact-region=0", "--contact-region", "(0, 1000]", 2),
     _C("run --safety=0", "--safety", "allowed (0,", 2),
-    _C("run --safety=5", "--safety", "stability limit", 3),
+    _C("run --safety=10", "--safety", "stability limit", 3),
     _C("run --dt=-1e-3", "--dt", "allowed (0,", 2),
     _C("run --dt=inf", "--dt", "allowed (0,", 2),
     _C(
