@@ -94,11 +94,13 @@ class Program:
 def call(fn: Callable, *args, name: str):
     """``fn(*args)``, through a stored program when the store is on (`compile_program`).
 
-    Without a store, or under a transformation (a tracer among the arguments), this is
-    ``fn(*args)``: jit's own cache serves repeated calls in a process.
+    Without a store, under ``jax.disable_jit()``, or under a transformation (a tracer among
+    the arguments), this is ``fn(*args)``: jit's own cache serves repeated calls in a process.
     """
     leaves = jax.tree_util.tree_leaves(args)
-    if _store is None or any(isinstance(x, jax.core.Tracer) for x in leaves):
+    if _store is None or jax.config.jax_disable_jit:  # disable_jit: no compiled program
+        return fn(*args)
+    if any(isinstance(x, jax.core.Tracer) for x in leaves):
         return fn(*args)
     key = _key_text(name, _dynamic(args)[2])
     if key is None:

@@ -19,6 +19,17 @@ SHORT = m.Settings(t_max=1.5, history_points=31, shape_times=(0.5,))
 COMPARE_SMOOTHING = 1e-3
 
 
+@pytest.fixture(autouse=True)
+def _no_export_store_leaks():
+    """A test that runs the CLI in-process switches the export store on (as the CLI does);
+    later tests must see the library's default (off) again."""
+    from msfd_jax import _export
+
+    before = _export.store()
+    yield
+    _export.enable(before)
+
+
 @pytest.fixture(scope="session")
 def small_mesh():
     return SMALL_MESH
