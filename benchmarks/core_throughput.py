@@ -59,7 +59,8 @@ def main() -> None:
     record: dict = dict(
         command="python benchmarks/core_throughput.py " + " ".join(sys.argv[1:]),
         date=datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
-        machine=f"{platform.processor() or platform.machine()}, one core (taskset -c 0)",
+        machine=f"{platform.processor() or platform.machine()}, pinned to core(s) "
+        f"{sorted(os.sched_getaffinity(0))}",
         jax=jax.__version__,
     )
     # --- the sweep: numba loop over the 64 collisions --------------------------------------
