@@ -14,7 +14,7 @@ import pytest
 from conftest import COMPARE_SMOOTHING, SHORT, SMALL_MESH
 
 import msfd_jax as m
-from msfd_jax import _sweep
+from msfd_jax import _shard, _sweep
 from msfd_jax._sweep import INPUTS, OUTPUTS, SweepTable, collisions, sweep
 from msfd_jax.cli import main
 
@@ -114,8 +114,9 @@ def test_bad_values_refused_before_compiling(spec, match, monkeypatch):
     def compiled(*args, **kwargs):
         raise AssertionError("a compiled program was called with unchecked inputs")
 
-    monkeypatch.setattr(_sweep, "_solve_chunk", compiled)
+    monkeypatch.setattr(_shard, "_solve_chunk", compiled)  # the sharded path (moved there)
     monkeypatch.setattr(_sweep, "_critical_chunk", compiled)
+    monkeypatch.setattr(_sweep, "run_queue", compiled)
     with pytest.raises(ValueError, match=match):
         sweep(spec, SMALL_MESH, SHORT, chunk_size=CHUNK, progress=False)
 
