@@ -215,7 +215,7 @@ def _nodal(grad_bar):
     return _pad(grad_bar, 0, 1) - _pad(grad_bar, 1, 0)
 
 
-def _approach(flat: FlatScene, p, x, gap):
+def _approach(p, x, gap):
     """A contact set's approaches delta (pairs..., B), and for node-to-node pairs the
     separation (dx, dy) and its length (the double where keeps reverse mode finite at 0)."""
     xa = x[p.a : p.a + p.n_a]
@@ -270,7 +270,7 @@ def respond(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> Response
             pair_force.append(f)
             dissipated.append(dc)
             continue
-        delta, geometry = _approach(flat, p, x, gap)
+        delta, geometry = _approach(p, x, gap)
         f, ps1, dc = contact_spring(delta, ps, k, fy, _contact_width(flat, delta.ndim - 1))
         force = force + _contact_forces(p, f, geometry, n_nodes)
         new_set.append(ps1)
@@ -313,7 +313,7 @@ def elastic_energy(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> F
         if isinstance(p, COLLAPSE_LAYOUTS):
             energy = energy + collapse_energy(flat, p, x, gap, k, ps)
             continue
-        delta, _ = _approach(flat, p, x, gap)
+        delta, _ = _approach(p, x, gap)
         pairs = tuple(range(delta.ndim - 1))
         width = _contact_width(flat, len(pairs))
         energy = energy + jnp.sum(contact_energy(delta, ps, k, width), axis=pairs)
@@ -334,7 +334,7 @@ def pair_forces(flat: FlatScene, x, permanent_set) -> tuple[Array, ...]:
         if isinstance(p, COLLAPSE_LAYOUTS):
             out.append(collapse_pair_force(flat, p, x, gap, k, fy, ps))
             continue
-        delta, _ = _approach(flat, p, x, gap)
+        delta, _ = _approach(p, x, gap)
         f, _, _ = contact_spring(delta, ps, k, fy, _contact_width(flat, delta.ndim - 1))
         out.append(f)
     return tuple(out)

@@ -46,7 +46,8 @@ def with_flags(smoothing) -> tuple:
     """(contact width, yield width) as the queue's smoothing, with the static flags that let
     the core compile the sharp laws alone where a width is known to be zero."""
     contact, yield_ = smoothing
-    return (contact, yield_, (smoothed(contact), smoothed(yield_)))
+    flags = (smoothed(contact), smoothed(yield_))
+    return (jnp.asarray(contact, float), jnp.asarray(yield_, float), flags)
 
 
 def _dt(dt_crit, settings: Settings):
@@ -242,7 +243,6 @@ def solve_batch(
     differentiated (`critical_step`); `max_steps` bounds the diffrax steps (static).
     """
     smoothing = with_flags((contact_smoothing, yield_smoothing))
-    smoothing = (jnp.asarray(smoothing[0], float), jnp.asarray(smoothing[1], float), smoothing[2])
     flat, cap = _scenes(params, mesh, smoothing)
     dt = _dt(jax.lax.stop_gradient(jnp.asarray(dt_critical, float)), settings)
     cap = jax.lax.stop_gradient(cap) if settings.t_max is None else None

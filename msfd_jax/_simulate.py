@@ -326,7 +326,9 @@ def prepare(scene: Scene, settings: Settings, adjoint=None, dt_critical=None) ->
     settings = jax.tree_util.tree_map(_as_float64, settings)
     if dt_critical is not None and settings.max_steps is None:
         raise ValueError("with dt_critical given, give Settings(max_steps=...) too")
-    return scene, settings, max_steps_for(scene, settings), adjoint, dt_critical
+    # the step bound from the cap resolved above (time_cap is not evaluated a second time)
+    bound = max_steps_for(scene, dataclasses.replace(settings, t_max=cap))
+    return scene, settings, bound, adjoint, dt_critical
 
 
 def _as_float64(v):

@@ -75,17 +75,22 @@ def test_no_import_cycle_in_msfd_jax_or_optimise():
     assert cycle is None, "import cycle: " + " -> ".join(cycle)
 
 
+def _last_line(code: str) -> str:
+    """The last line `code` prints in a fresh interpreter (which must exit cleanly)."""
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=600, cwd=ROOT
+    )
+    assert done.returncode == 0, done.stderr
+    return done.stdout.strip().splitlines()[-1]
+
+
 def test_the_solver_path_imports_no_matplotlib():
     code = (
         "import sys; import msfd_jax as m; "
         "m.run(m.CollisionParams(), m.Mesh(6, 8, 2), m.Settings(t_max=0.3)); "
         "print('matplotlib' in sys.modules)"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, timeout=600, cwd=ROOT
-    )
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip().splitlines()[-1] == "False", done.stdout
+    assert _last_line(code) == "False"
 
 
 def test_msfd_run_builds_only_its_parser_and_imports_no_optimiser():
@@ -95,11 +100,7 @@ def test_msfd_run_builds_only_its_parser_and_imports_no_optimiser():
         "p = build_parser('run'); p.parse_args(['run', '--json']); "
         "print(sorted(m for m in ('optimise', 'optax', 'matplotlib', 'dask') if m in sys.modules))"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, timeout=600, cwd=ROOT
-    )
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip().splitlines()[-1] == "[]", done.stdout
+    assert _last_line(code) == "[]"
 
 
 def test_no_source_file_is_over_500_lines():
