@@ -11,6 +11,9 @@ it ran in (tests/test_engine.py: a batch of N equals N single runs).
 
 from __future__ import annotations
 
+import collections
+import os
+import threading
 import time
 from collections.abc import Callable
 
@@ -127,6 +130,17 @@ def _solution(flat, y, kin, block, forces, dt, dt_crit, k0, substeps) -> Solutio
     )
 
 
+def default_workers() -> int:
+    """Worker threads of an in-process sweep: the cores this process may run on (its CPU
+    affinity: ``taskset -c 1`` gives 1), one on an accelerator (one device serves them all)."""
+    if jax.default_backend() != "cpu":
+        return 1
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # no affinity on this platform
+        return max(1, os.cpu_count() or 1)
+
+
 def run_queue(
     params: dict[str, np.ndarray],
     dt_critical: np.ndarray,
@@ -137,78 +151,125 @@ def run_queue(
     *,
     slots: int = DEFAULT_SLOTS,
     segment: int = DEFAULT_SEGMENT,
+    workers: int = 1,
     on_done: Callable[[np.ndarray, Solution, np.ndarray], None],
 ) -> dict:
     """Run every collision of `params` (columns of CollisionParams fields) through B slots.
 
-    `on_done(rows, solution, wall)` receives each group of collisions that stopped in the
-    same segment: their positions in `params`, a batch-first `Solution` of them (no
-    histories) and each one's share of the run time (compile time excluded). Returns the
-    slot count, the number of segments and the compile and run times.
+    `workers` threads each run their own B slots, all taking collisions from one queue
+    (XLA releases the GIL while a compiled program runs, so W threads use W cores; one
+    compiled program serves them all). `on_done(rows, solution, wall)` receives each group
+    of collisions that stopped in the same segment of one worker: their positions in
+    `params`, a batch-first `Solution` of them (no histories) and each one's share of the
+    run time (compile time excluded); calls are serialised. Returns the slot count, the
+    worker count, the number of segments and the compile and run times (run time: wall time
+    of the whole queue, compile excluded).
     """
     n = len(dt_critical)
-    b = _slot_count(n, slots)
+    workers = max(1, min(int(workers), -(-n // 8)))  # every worker has >= 8 collisions
+    b = _slot_count(-(-n // workers), slots)
     smoothing = with_flags(smoothing)
-    queue = list(range(n))
-    slot_row = np.full(b, -1)
+    queue = collections.deque(range(n))
     names = list(params)
+    lock = threading.Lock()
 
     def batch_of(rows):
         rows = np.asarray(rows)
         padded = np.concatenate([rows, np.full(b - len(rows), rows[0])]) if len(rows) else None
         p = CollisionParams(**{k: jnp.asarray(params[k][padded]) for k in names})
-        return p, jnp.asarray(dt_critical[padded]), padded
+        return p, jnp.asarray(dt_critical[padded])
 
-    first = queue[:b]
-    del queue[:b]
-    p, d, padded = batch_of(first)
-    slot_row[: len(first)] = first
+    def take(count):
+        with lock:
+            return [queue.popleft() for _ in range(min(count, len(queue)))]
+
     tick = time.perf_counter()
-    flat, clock, y = _start(p, d, mesh, smoothing, settings, max_steps)
-    # compile the segment ahead of time, so that its compilation is timed apart from the run
+    starts = []
+    for _ in range(workers):
+        first = take(b)
+        if first:  # (64 collisions, 3 workers of 32 slots: the third has none)
+            p, d = batch_of(first)
+            starts.append((first, _start(p, d, mesh, smoothing, settings, max_steps)))
+    workers = len(starts)
+    flat, clock, y = starts[0][1]
+    # compile the programs ahead of time (once, before the threads start), so that their
+    # compilation is timed apart from the run
     segment_fn = _segment.lower(flat, clock, y, settings, segment).compile()
+    refill_fn = _refill.lower(
+        flat, clock, y, jnp.zeros(b, bool), *batch_of(np.zeros(b, np.int64)),
+        mesh, smoothing, settings, max_steps,
+    ).compile()  # fmt: skip
+    report_fn = _report.lower(flat, clock, y).compile()
     compile_s = time.perf_counter() - tick
-    if len(first) < b:  # idle slots (fewer collisions than slots): stopped from the start
-        idle = jnp.asarray(slot_row < 0)
-        y = eqx.tree_at(lambda s: s.done, y, jnp.where(idle, 1.0, y.done))
-    busy = np.zeros(b)  # run time attributed to each slot's current collision
-    run_s, segments = 0.0, 0
-    while (slot_row >= 0).any():
-        tick = time.perf_counter()
-        y = segment_fn(flat, clock, y, settings, segment)
-        done = np.asarray(y.done) > 0
-        wall = time.perf_counter() - tick
-        run_s += wall
-        segments += 1
-        active = slot_row >= 0
-        busy[active] += wall / max(int(active.sum()), 1)
-        finished = done & active
-        if not finished.any():
-            continue
-        idx = np.flatnonzero(finished)
-        pick = jax.tree_util.tree_map(
-            lambda a, idx=idx: np.asarray(a)[idx], jax.device_get(_report(flat, clock, y))
-        )
-        dt = np.asarray(clock.dt0)[idx] / settings.substeps
-        k0 = np.asarray(clock.k0)[idx]
-        solution = _solution(flat, *pick, dt, dt_critical[slot_row[idx]], k0, settings.substeps)
-        on_done(slot_row[idx], solution, busy[idx].copy())
-        busy[idx] = 0.0
-        slot_row[idx] = -1
-        if queue:
-            fill = idx[: len(queue)]
-            rows = queue[: len(fill)]
-            del queue[: len(fill)]
-            take = np.zeros(b, bool)
-            take[fill] = True
-            new_rows = np.zeros(b, np.int64)
-            new_rows[fill] = rows
-            p, d, _ = batch_of(new_rows)
-            flat, clock, y = _refill(
-                flat, clock, y, jnp.asarray(take), p, d, mesh, smoothing, settings, max_steps
+    segments = [0] * workers
+    errors: list[BaseException] = []
+
+    def drain(w, first, state):
+        flat, clock, y = state
+        slot_row = np.full(b, -1)
+        slot_row[: len(first)] = first
+        if len(first) < b:  # idle slots (fewer collisions than slots): stopped from the start
+            idle = jnp.asarray(slot_row < 0)
+            y = eqx.tree_at(lambda s: s.done, y, jnp.where(idle, 1.0, y.done))
+        busy = np.zeros(b)  # run time attributed to each slot's current collision
+        while (slot_row >= 0).any() and not errors:
+            tick = time.perf_counter()
+            y = segment_fn(flat, clock, y, settings, segment)
+            done = np.asarray(y.done) > 0
+            wall = time.perf_counter() - tick
+            segments[w] += 1
+            active = slot_row >= 0
+            busy[active] += wall / max(int(active.sum()), 1)
+            finished = done & active
+            if not finished.any():
+                continue
+            idx = np.flatnonzero(finished)
+            pick = jax.tree_util.tree_map(
+                lambda a, idx=idx: np.asarray(a)[idx], jax.device_get(report_fn(flat, clock, y))
             )
-            slot_row[fill] = rows
-    return dict(slots=b, segments=segments, compile_s=compile_s, run_s=run_s)
+            dt = np.asarray(clock.dt0)[idx] / settings.substeps
+            k0 = np.asarray(clock.k0)[idx]
+            solution = _solution(flat, *pick, dt, dt_critical[slot_row[idx]], k0, settings.substeps)
+            with lock:
+                on_done(slot_row[idx], solution, busy[idx].copy())
+            busy[idx] = 0.0
+            slot_row[idx] = -1
+            rows = take(len(idx))
+            if rows:
+                fill = idx[: len(rows)]
+                take_mask = np.zeros(b, bool)
+                take_mask[fill] = True
+                new_rows = np.zeros(b, np.int64)
+                new_rows[fill] = rows
+                p, d = batch_of(new_rows)
+                flat, clock, y = refill_fn(
+                    flat, clock, y, jnp.asarray(take_mask), p, d, mesh, smoothing, settings,
+                    max_steps,
+                )  # fmt: skip
+                slot_row[fill] = rows
+
+    def guarded(w, first, state):
+        try:
+            drain(w, first, state)
+        except BaseException as e:  # re-raised in the caller's thread
+            errors.append(e)
+
+    tick = time.perf_counter()
+    if workers == 1:
+        drain(0, *starts[0])
+    else:
+        threads = [
+            threading.Thread(target=guarded, args=(w, *s), name=f"msfd-queue-{w}", daemon=True)
+            for w, s in enumerate(starts)
+        ]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        if errors:
+            raise errors[0]
+    run_s = time.perf_counter() - tick
+    return dict(slots=b, workers=workers, segments=sum(segments), compile_s=compile_s, run_s=run_s)
 
 
 def _slot_count(n: int, slots: int) -> int:

@@ -29,7 +29,7 @@ from ._outputs import FRACTION_KEYS, balance_warning, diagnose, fractions
 from ._params import CollisionParams, Mesh, validate
 from ._progress import SweepProgress as _SweepProgress
 from ._provenance import mesh_json
-from ._queue import run_queue
+from ._queue import default_workers, run_queue
 from ._results import RESULTS
 from ._retry import RETRY_OUTPUTS, solve_with_retries, with_retry_columns
 from ._scene import _ring_on_beam
@@ -140,6 +140,7 @@ def sweep(
     client: Any = None,
     task_size: int | None = None,
     compile_cache: str | Path | None = None,
+    workers: int | None = None,
     on_rows: Callable[[np.ndarray, dict[str, np.ndarray]], None] | None = None,
 ) -> SweepTable:
     """Run a grid or list of collisions, `chunk_size` at a time under one compiled vmap.
@@ -172,6 +173,10 @@ def sweep(
       collisions run as Dask tasks of `task_size` (default `chunk_size`) collisions each, in
       the cluster's workers; `compile_cache`: the directory of JAX's persistent compile cache
       that the workers use (None: as their JAX is configured).
+    - `workers`: threads of an in-process sweep, each with its own `chunk_size` slots, all
+      fed from one queue (None: one per core this process may use, `_queue.default_workers`;
+      1 on an accelerator). The rows do not depend on it (a collision's result does not
+      depend on its slot). A cluster's tasks run one thread each (its workers are the cores).
     - `on_rows(rows, outputs)`: called as each group of collisions finishes (after it is
       written), with their row positions in the table and their output columns.
 
@@ -181,6 +186,7 @@ def sweep(
     n = len(columns["thickness_ratio"])
     task_size = chunk_size if task_size is None else task_size
     _check_sweep(columns, mesh, chunk_size, shard, contact_smoothing, yield_smoothing, task_size)
+    _check_workers(workers)
     start = time.perf_counter()
     store = None if output is None else open_store(output)
     kept = np.zeros(n, dtype=bool)
@@ -212,6 +218,7 @@ def sweep(
 
     kwargs = dict(mesh=mesh, settings=settings, chunk_size=chunk_size, shard=shard)
     kwargs.update(contact_smoothing=contact_smoothing, yield_smoothing=yield_smoothing)
+    kwargs.update(workers=1 if client is not None else workers)
     todo_columns = {k: columns[k][todo] for k in INPUTS}
     try:
         if len(todo) and client is None:
@@ -240,6 +247,21 @@ def _check_sweep(columns, mesh, chunk_size, shard, contact_smoothing, yield_smoo
     _chunking(chunk_size, shard)
     if isinstance(tasks, bool) or not isinstance(tasks, int) or tasks < 1:
         raise ValueError(f"task_size must be an integer >= 1, got {tasks!r}")
+
+
+MAX_WORKERS = 1024
+
+
+def _check_workers(workers) -> int | None:
+    ok = workers is None or (
+        isinstance(workers, int) and not isinstance(workers, bool) and 1 <= workers <= MAX_WORKERS
+    )
+    if not ok:
+        raise ValueError(
+            f"workers must be None (one per core) or an integer >= 1 and <= {MAX_WORKERS}, "
+            f"got {workers!r}"
+        )
+    return workers
 
 
 def _numerics(mesh: Mesh, settings: Settings, contact: float, yield_: float) -> dict:
@@ -275,6 +297,7 @@ def _solve_collisions(
     contact_smoothing: float = 0.0,
     yield_smoothing: float = 0.0,
     shard: bool = False,
+    workers: int | None = None,
     on_rows: Callable[[np.ndarray, dict[str, np.ndarray]], None] | None = None,
     on_stage: Callable[[str], None] | None = None,
 ) -> dict[str, np.ndarray]:
@@ -296,6 +319,7 @@ def _solve_collisions(
     validate(params, mesh)
     smoothing = _smoothing_arrays(contact_smoothing, yield_smoothing)
     chunk_size, devices = _chunking(chunk_size, shard)
+    workers = _check_workers(workers) or default_workers()
     settings = _sweep_settings(settings)
     n = len(columns["thickness_ratio"])
     chunks = [range(s, min(s + chunk_size, n)) for s in range(0, n, chunk_size)]
@@ -343,6 +367,7 @@ def _solve_collisions(
         smoothing,
         settings.max_steps,
         slots=chunk_size,
+        workers=workers,
         on_done=done,
     )
     LAST_TIMING.clear()

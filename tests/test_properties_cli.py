@@ -82,6 +82,7 @@ SWEEP_OPTIONS = {
     "--host-devices": TEXT,
     "--cluster": st.one_of(st.sampled_from(["local:2", "local:0", "tcp://h:1", "udp://x"]), TEXT),
     "--task-size": TEXT,
+    "--workers": TEXT,
     "--resume": st.none(),
     "--json": st.none(),
     "-q": st.none(),

@@ -207,12 +207,35 @@ def test_more_collisions_than_slots_refill_and_equal_single_runs():
         for a in (0.0, 1.0)
     ]
     table = sweep(
-        rows, SMALL_MESH, SHORT, chunk_size=CHUNK, progress=False, contact_smoothing=SMOOTH
-    )
+        rows, SMALL_MESH, SHORT, chunk_size=CHUNK, progress=False, contact_smoothing=SMOOTH,
+        workers=1,
+    )  # fmt: skip
     assert _sweep.LAST_TIMING["slots"] == 8 and len(table) == 10
+    assert _sweep.LAST_TIMING["segments"] > 1
     for i, row in enumerate(rows):
         single = m.run(m.CollisionParams(**row), SMALL_MESH, SHORT, contact_smoothing=SMOOTH)
         out = single.to_json()
         assert table["steps"][i] == out["steps"]
         for key, value in out["fractions"].items():
             assert table[key][i] == pytest.approx(value, rel=1e-9, abs=1e-12), (i, key)
+
+
+def test_worker_threads_give_the_same_rows():
+    """Three threads of 8 slots fed from one queue (20 collisions: refills in each) give
+    exactly the rows of one thread: a collision's result does not depend on its slot."""
+    rows = [dict(thickness_ratio=t, velocity=v) for t in (0.5, 1.0, 1.5, 2.0, 2.5)
+            for v in (0.5, 0.6, 0.7, 0.82)]  # fmt: skip
+    one = sweep(rows, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=1)
+    assert _sweep.LAST_TIMING["workers"] == 1
+    three = sweep(rows, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=3)
+    assert _sweep.LAST_TIMING["workers"] == 3 and _sweep.LAST_TIMING["slots"] == 8
+    for key in OUTPUTS:
+        if key == "wall_time_s":
+            continue
+        np.testing.assert_array_equal(np.asarray(one[key]), np.asarray(three[key]), err_msg=key)
+
+
+@pytest.mark.parametrize("workers", [0, -1, 1.5, True, "2", 10**6])
+def test_bad_worker_count_refused(workers):
+    with pytest.raises(ValueError, match="workers must be None"):
+        sweep(GRID, SMALL_MESH, SHORT, chunk_size=CHUNK, workers=workers)

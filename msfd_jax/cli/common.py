@@ -70,6 +70,7 @@ OPTION_NAMES = {
     "yield_smoothing": "--yield-smoothing",
     "chunk_size": "--chunk-size",
     "task_size": "--task-size",
+    "workers": "--workers",
 }
 
 

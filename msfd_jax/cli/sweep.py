@@ -65,6 +65,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.set_defaults(history_points=2, shape_times=())
     batch = parser.add_argument_group("batching")
     batch.add_argument("--chunk-size", type=int, default=DEFAULT_CHUNK, help="per compiled call")
+    batch.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="threads, each with its own --chunk-size slots fed from one queue "
+        "(default: one per core this process may use; 1 with --cluster)",
+    )
     batch.add_argument("--shard", action="store_true", help="split chunks across JAX devices")
     batch.add_argument(
         "--host-devices",
@@ -200,6 +207,7 @@ def handle(args: argparse.Namespace) -> int:
             client=client,
             task_size=args.task_size,
             compile_cache=cache,
+            workers=args.workers,
         )
     except (ValueError, TypeError) as error:  # raised before anything is compiled
         raise common.UsageError(common.name_the_option(str(error), si=si)) from None
