@@ -32,7 +32,8 @@ from ._params import CollisionParams, Mesh
 from ._scene import _ring_on_beam, smoothed
 from ._simulate import Settings, Solution
 
-DEFAULT_SLOTS = 64
+DEFAULT_SLOTS = 32  # the fastest of 16, 32, 64 per collision-step (benchmarks/slot_cost.py)
+MIN_SLOTS = 16
 DEFAULT_SEGMENT = 64  # diffrax steps (x substeps Verlet steps) between refills
 
 
@@ -166,7 +167,7 @@ def run_queue(
     of the whole queue, compile excluded).
     """
     n = len(dt_critical)
-    workers = max(1, min(int(workers), -(-n // 8)))  # every worker has >= 8 collisions
+    workers = max(1, min(int(workers), -(-n // MIN_SLOTS)))  # >= MIN_SLOTS collisions each
     b = _slot_count(-(-n // workers), slots)
     smoothing = with_flags(smoothing)
     queue = collections.deque(range(n))
@@ -273,15 +274,17 @@ def run_queue(
 
 
 def _slot_count(n: int, slots: int) -> int:
-    """Slots for n collisions: min(n, `slots`) rounded up to a power of two, at least 8
-    (a 3-collision sweep runs 8 slots, not 64; extra slots idle).
+    """Slots for n collisions: min(n, `slots`) rounded up to a power of two, at least
+    `MIN_SLOTS` (a 3-collision sweep runs 16 slots, not 32; extra slots idle).
 
-    Powers of two from 8: every slot is then a full lane of the vector units (8 float64 in
-    AVX-512, 4 in AVX2), so a collision's arithmetic is the same whatever the batch size;
-    with batches of 2 or 3 the lanes past the vector width ran as scalar remainder code,
-    whose rounding differed by ~1e-11 relative (and a cluster's task split changed results).
+    Powers of two: every slot is then a full lane of the vector units (8 float64 in AVX-512,
+    4 in AVX2), so a collision's arithmetic is the same whatever the batch size; with batches
+    of 2 or 3 the lanes past the vector width ran as scalar remainder code, whose rounding
+    differed by ~1e-11 relative (and a cluster's task split changed results). At least 16:
+    a substep of 8 slots costs as much as one of 16 on XLA:CPU (59.5 against 62.6 us on the
+    paper mesh, `benchmarks/slot_cost.py`), so 8 slots only halve the throughput.
     """
-    return max(8, 1 << max(0, (min(n, slots) - 1).bit_length()))
+    return max(MIN_SLOTS, 1 << max(0, (min(n, slots) - 1).bit_length()))
 
 
 def solve_batch(

@@ -29,7 +29,7 @@ from ._outputs import FRACTION_KEYS, balance_warning, diagnose, fractions
 from ._params import CollisionParams, Mesh, validate
 from ._progress import SweepProgress as _SweepProgress
 from ._provenance import mesh_json
-from ._queue import default_workers, run_queue
+from ._queue import DEFAULT_SLOTS, default_workers, run_queue
 from ._results import RESULTS
 from ._retry import RETRY_OUTPUTS, solve_with_retries, with_retry_columns
 from ._scene import _ring_on_beam
@@ -60,7 +60,7 @@ OUTPUTS = (*SOLVED_OUTPUTS, *RETRY_OUTPUTS)  # retries, safety: issue 12 (`_retr
 # so by default it saves two history samples and no shapes (the outputs do not depend on them).
 SWEEP_SETTINGS = Settings(history_points=2, shape_times=())
 MAX_CHUNK = 65_536  # slots or vmapped rows per compiled call (chunks are padded to it)
-DEFAULT_CHUNK = 16  # slots: the fastest of 8, 16, 64 on one core (benchmarks/results/core.md)
+DEFAULT_CHUNK = DEFAULT_SLOTS  # slots per worker: the fastest per collision-step on one core
 # compile and run time of the last in-process sweep (slots, segments, compile_s, run_s)
 LAST_TIMING: dict = {}
 
@@ -154,7 +154,7 @@ def sweep(
       `simulate` would take for the smallest step of the sweep (of the task, on a cluster):
       every collision's computed stability limit is evaluated first (a small vmapped
       program), so that one bound, and so one compiled program, serves all chunks.
-    - `chunk_size`: slots of the batched core (rounded up to a power of two, at least 8):
+    - `chunk_size`: slots of the batched core (rounded up to a power of two, at least 16):
       collisions that run together, each stopped slot refilled from the queue (memory is one
       batch of slots). With `shard`, collisions per sharded chunk.
     - `progress`: a progress bar on stderr (tqdm; off by default, on in the CLI).

@@ -1,7 +1,7 @@
 """Sweeps: one compiled vmap over chunks equals single runs; grid/list expansion; CSV; CLI.
 
 Every sweep here runs the same four collisions on the small mesh with the shared short
-settings and chunk size 3 (rounded up to 8 slots of the batched core), so
+settings and chunk size 3 (rounded up to 16 slots of the batched core), so
 the vmapped program is compiled once for the file; the single runs reuse the program that the
 other test files compile for `SMALL_MESH` and `SHORT`.
 """
@@ -198,21 +198,25 @@ def test_line_progress_prints_each_line_and_counts_steps(capsys):
     assert "2/2" in err and "msfd tune" in err
 
 
-def test_more_collisions_than_slots_refill_and_equal_single_runs():
-    """10 collisions in 8 slots (chunk 3 rounds up to 8): two slots are refilled from the
+ROWS20 = [dict(thickness_ratio=t, velocity=v, axial_constraint=a) for t in (1.0, 1.5, 2.0, 2.5, 3.0)
+          for v in (0.7, 0.82) for a in (0.0, 1.0)]  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def one_worker():
+    table = sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=1)
+    table.timing = dict(_sweep.LAST_TIMING)
+    return table
+
+
+def test_more_collisions_than_slots_refill_and_equal_single_runs(one_worker):
+    """20 collisions in 16 slots (chunk 3 rounds up to 16): four slots are refilled from the
     queue as their first collisions stop; every row equals its single run."""
-    rows = [
-        dict(thickness_ratio=t, axial_constraint=a)
-        for t in (1.0, 1.5, 2.0, 2.5, 3.0)
-        for a in (0.0, 1.0)
-    ]
-    table = sweep(
-        rows, SMALL_MESH, SHORT, chunk_size=CHUNK, progress=False, contact_smoothing=SMOOTH,
-        workers=1,
-    )  # fmt: skip
-    assert _sweep.LAST_TIMING["slots"] == 8 and len(table) == 10
-    assert _sweep.LAST_TIMING["segments"] > 1
-    for i, row in enumerate(rows):
+    table = one_worker
+    assert len(table) == 20
+    assert table.timing["slots"] == 16 and table.timing["workers"] == 1
+    assert table.timing["segments"] > 1  # the refilled slots ran on after the first ones
+    for i, row in enumerate(ROWS20):
         single = m.run(m.CollisionParams(**row), SMALL_MESH, SHORT, contact_smoothing=SMOOTH)
         out = single.to_json()
         assert table["steps"][i] == out["steps"]
@@ -220,19 +224,20 @@ def test_more_collisions_than_slots_refill_and_equal_single_runs():
             assert table[key][i] == pytest.approx(value, rel=1e-9, abs=1e-12), (i, key)
 
 
-def test_worker_threads_give_the_same_rows():
-    """Three threads of 8 slots fed from one queue (20 collisions: refills in each) give
-    exactly the rows of one thread: a collision's result does not depend on its slot."""
-    rows = [dict(thickness_ratio=t, velocity=v) for t in (0.5, 1.0, 1.5, 2.0, 2.5)
-            for v in (0.5, 0.6, 0.7, 0.82)]  # fmt: skip
-    one = sweep(rows, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=1)
-    assert _sweep.LAST_TIMING["workers"] == 1
-    three = sweep(rows, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=3)
-    assert _sweep.LAST_TIMING["workers"] == 3 and _sweep.LAST_TIMING["slots"] == 8
+def test_worker_threads_give_the_same_rows(one_worker):
+    """Two threads of 16 slots fed from one queue give exactly the rows of one thread: a
+    collision's result does not depend on its slot. 40 collisions: refills in both."""
+    rows = ROWS20 + [{**r, "mass_ratio": 5.0} for r in ROWS20]
+    two = sweep(rows, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=2)
+    assert _sweep.LAST_TIMING["workers"] == 2 and _sweep.LAST_TIMING["slots"] == 16
+    assert _sweep.LAST_TIMING["segments"] > 2
+    one = sweep(rows[20:], SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=1)
     for key in OUTPUTS:
         if key == "wall_time_s":
             continue
-        np.testing.assert_array_equal(np.asarray(one[key]), np.asarray(three[key]), err_msg=key)
+        first, second = np.asarray(two[key])[:20], np.asarray(two[key])[20:]
+        np.testing.assert_array_equal(np.asarray(one_worker[key]), first, err_msg=key)
+        np.testing.assert_array_equal(np.asarray(one[key]), second, err_msg=key)
 
 
 @pytest.mark.parametrize("workers", [0, -1, 1.5, True, "2", 10**6])
