@@ -153,6 +153,7 @@ def run_queue(
     slots: int = DEFAULT_SLOTS,
     segment: int = DEFAULT_SEGMENT,
     workers: int = 1,
+    compact: bool = True,
     on_done: Callable[[np.ndarray, Solution, np.ndarray], None],
 ) -> dict:
     """Run every collision of `params` (columns of CollisionParams fields) through B slots.
@@ -163,8 +164,14 @@ def run_queue(
     of collisions that stopped in the same segment of one worker: their positions in
     `params`, a batch-first `Solution` of them (no histories) and each one's share of the
     run time (compile time excluded); calls are serialised. Returns the slot count, the
-    worker count, the number of segments and the compile and run times (run time: wall time
-    of the whole queue, compile excluded).
+    worker count, the number of segments and of compactions (below), the compile and run
+    times (run time: wall time of the whole queue, compile excluded).
+
+    `compact`: once the queue is empty and at most half of a worker's slots still run, their
+    collisions move into a program of half as many slots (down to `MIN_SLOTS`; compiled when
+    first needed, its compilation counted as compile time): the tail of a sweep no longer
+    pays for stopped slots. A collision's result does not depend on its slot or the slot
+    count (tests/test_sweep.py).
     """
     n = len(dt_critical)
     workers = max(1, min(int(workers), -(-n // MIN_SLOTS)))  # >= MIN_SLOTS collisions each
@@ -201,9 +208,33 @@ def run_queue(
         mesh, smoothing, settings, max_steps,
     ).compile()  # fmt: skip
     report_fn = _report.lower(flat, clock, y).compile()
-    compile_s = time.perf_counter() - tick
-    segments = [0] * workers
+    programs = {b: (segment_fn, report_fn)}
+    compile_s = [time.perf_counter() - tick]
+    segments, halvings = [0] * workers, [0] * workers
     errors: list[BaseException] = []
+    compiling = threading.Lock()
+
+    def programs_for(size, state):
+        with compiling:  # one thread compiles a size; the others wait for it
+            if size not in programs:
+                tick = time.perf_counter()
+                flat, clock, y = state
+                programs[size] = (
+                    _segment.lower(flat, clock, y, settings, segment).compile(),
+                    _report.lower(flat, clock, y).compile(),
+                )
+                compile_s.append(time.perf_counter() - tick)
+            return programs[size]
+
+    def halve(state, slot_row, busy):
+        """The running slots (at most half) moved into a batch of half the size."""
+        size = len(slot_row) // 2
+        keep = np.flatnonzero(slot_row >= 0)
+        idx = np.concatenate([keep, np.full(size - len(keep), keep[0])])
+        flat, clock, y = jax.tree_util.tree_map(lambda a: a[..., idx], state)
+        pad = np.arange(size) >= len(keep)
+        y = eqx.tree_at(lambda s: s.done, y, jnp.where(jnp.asarray(pad), 1.0, y.done))
+        return (flat, clock, y), np.where(pad, -1, slot_row[idx]), np.where(pad, 0.0, busy[idx])
 
     def drain(w, first, state):
         flat, clock, y = state
@@ -213,6 +244,7 @@ def run_queue(
             idle = jnp.asarray(slot_row < 0)
             y = eqx.tree_at(lambda s: s.done, y, jnp.where(idle, 1.0, y.done))
         busy = np.zeros(b)  # run time attributed to each slot's current collision
+        segment_fn, report_fn = programs[b]
         while (slot_row >= 0).any() and not errors:
             tick = time.perf_counter()
             y = segment_fn(flat, clock, y, settings, segment)
@@ -248,6 +280,14 @@ def run_queue(
                     max_steps,
                 )  # fmt: skip
                 slot_row[fill] = rows
+            running = int((slot_row >= 0).sum())
+            size = len(slot_row)
+            if compact and not rows and 0 < running <= size // 2 and size // 2 >= MIN_SLOTS:
+                while running <= size // 2 and size // 2 >= MIN_SLOTS:
+                    (flat, clock, y), slot_row, busy = halve((flat, clock, y), slot_row, busy)
+                    size = len(slot_row)
+                    halvings[w] += 1
+                segment_fn, report_fn = programs_for(size, (flat, clock, y))
 
     def guarded(w, first, state):
         try:
@@ -269,8 +309,12 @@ def run_queue(
             t.join()
         if errors:
             raise errors[0]
-    run_s = time.perf_counter() - tick
-    return dict(slots=b, workers=workers, segments=sum(segments), compile_s=compile_s, run_s=run_s)
+    # the smaller programs' compilation (the threads wait for it) is compile time, not run time
+    run_s = time.perf_counter() - tick - sum(compile_s[1:])
+    return dict(
+        slots=b, workers=workers, segments=sum(segments), compactions=sum(halvings),
+        compile_s=sum(compile_s), run_s=run_s,
+    )  # fmt: skip
 
 
 def _slot_count(n: int, slots: int) -> int:

@@ -238,6 +238,12 @@ def test_worker_threads_give_the_same_rows(one_worker):
         first, second = np.asarray(two[key])[:20], np.asarray(two[key])[20:]
         np.testing.assert_array_equal(np.asarray(one_worker[key]), first, err_msg=key)
         np.testing.assert_array_equal(np.asarray(one[key]), second, err_msg=key)
+    # one worker of 32 slots: 8 refills, then the tail moves into a program of 16 slots
+    wide = sweep(rows, SMALL_MESH, SHORT, chunk_size=32, contact_smoothing=SMOOTH, workers=1)
+    assert _sweep.LAST_TIMING["slots"] == 32 and _sweep.LAST_TIMING["compactions"] >= 1
+    for key in OUTPUTS:
+        if key != "wall_time_s":
+            np.testing.assert_array_equal(np.asarray(wide[key]), np.asarray(two[key]), key)
 
 
 @pytest.mark.parametrize("workers", [0, -1, 1.5, True, "2", 10**6])

@@ -1,0 +1,127 @@
+"""How the cost of a collision grows with the mesh (issue 11, goal 6).
+
+The paper mesh refined x1, x2, x4 (every segment count times f): for each, the showcase
+collision's Verlet steps (`run`, default settings: the step follows the stability limit, so
+it shrinks as the mesh is refined) and the batched core's cost per collision-step at B = 32
+slots (a `fori_loop` of substeps of 32 showcase-like collisions, sharp laws, as sweeps compile
+it; the meshes timed in turn, round after round, best round kept). Cost per collision = steps x
+cost per collision-step. Goal 6: it grows no faster than nodes x steps (contact work
+proportional to nodes); with the dense contact (ring nodes x beam contact nodes pairs) the
+contact part grows as nodes^2, which the table shows.
+
+    python benchmarks/cost_growth.py           # writes benchmarks/results/cost_growth.md
+
+Re-executes itself under ``taskset -c 0`` when available (MSFD_BENCH_CORE picks the core).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import datetime
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+RESULTS = Path(__file__).resolve().parent / "results"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--factors", nargs="+", type=int, default=[1, 2, 4])
+    parser.add_argument("--slots", type=int, default=32)
+    parser.add_argument("--steps", type=int, default=300)
+    parser.add_argument("--rounds", type=int, default=5)
+    args = parser.parse_args()
+    if not os.environ.get("MSFD_BENCH_PINNED") and shutil.which("taskset"):
+        env = dict(os.environ, MSFD_BENCH_PINNED="1")
+        core = os.environ.get("MSFD_BENCH_CORE", "0")
+        command = ["taskset", "-c", core, sys.executable, *sys.argv]
+        raise SystemExit(subprocess.call(command, env=env))
+    import equinox as eqx
+    import jax
+    import jax.numpy as jnp
+
+    import msfd_jax as m
+    from msfd_jax import _engine, _queue, _sweep
+
+    b = args.slots
+    base = m.Mesh()
+    settings = dataclasses.replace(_sweep.SWEEP_SETTINGS, t_max=10.0)
+    rows, programs = [], {}
+    for f in args.factors:
+        mesh = m.Mesh(
+            ring_segments=base.ring_segments * f,
+            beam_contact_segments=base.beam_contact_segments * f,
+            beam_outer_segments=base.beam_outer_segments * f,
+        )
+        showcase = m.run(m.CollisionParams(), mesh, m.Settings(t_max=10.0))
+        p = m.CollisionParams(**{
+            "thickness_ratio": jnp.linspace(2.0, 3.0, b), "axial_constraint": jnp.ones(b),
+            "mass_ratio": jnp.full(b, 10.0), "velocity": jnp.full(b, 0.82),
+            "modulus_ratio": jnp.full(b, 500.0), "slenderness": jnp.full(b, 30.0),
+            "span_ratio": jnp.full(b, 5.0), "width_ratio": jnp.ones(b),
+        })  # fmt: skip
+        smoothing = _queue.with_flags((0.0, 0.0))
+        dt = jnp.full(b, showcase.solution.dt)
+        flat, clock, y = _queue._start(p, dt / 0.7, mesh, smoothing, settings, 10**7)
+        h = jnp.full(b, float(showcase.solution.dt))
+
+        def loop(flat, y, h=h, tol=clock.tolerance):
+            body = lambda i, s: _engine.verlet_substep(flat, s, i * h, h, tol)  # noqa: E731
+            return jax.lax.fori_loop(0, args.steps, body, y)
+
+        fn = eqx.filter_jit(loop)
+        jax.block_until_ready(fn(flat, y))
+        programs[f] = (fn, flat, y)
+        pairs = sum(q.n_a * q.n_b for q in flat.pairs if hasattr(q, "n_b"))
+        rows.append(dict(f=f, nodes=flat.n_nodes, pairs=pairs, steps=int(showcase.steps)))
+        print(f"mesh x{f}: {flat.n_nodes} nodes, {pairs} contact pairs, showcase "
+              f"{showcase.steps} steps", flush=True)  # fmt: skip
+    best = dict.fromkeys(programs, float("inf"))
+    for _ in range(args.rounds):
+        for f, (fn, flat, y) in programs.items():
+            tick = time.perf_counter()
+            jax.block_until_ready(fn(flat, y))
+            best[f] = min(best[f], time.perf_counter() - tick)
+    first = rows[0]
+    for row in rows:
+        row["us_per_collision_step"] = best[row["f"]] / args.steps / b * 1e6
+        row["ms_per_collision"] = row["us_per_collision_step"] * row["steps"] * 1e-3
+    c0 = first["ms_per_collision"]
+    date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    lines = [
+        "# Cost growth with the mesh (issue 11, goal 6)",
+        "",
+        f"`python benchmarks/cost_growth.py {' '.join(sys.argv[1:])}`".replace(" `", "`")
+        + f" · {date} · core(s) {sorted(os.sched_getaffinity(0))} · jax {jax.__version__} · "
+        f"B = {b} slots, best of {args.rounds} interleaved rounds of {args.steps} substeps; "
+        "steps: the showcase collision's at the default step",
+        "",
+        "| mesh | nodes | contact pairs | showcase steps | µs / collision-step "
+        "| ms / collision | cost growth | nodes x steps growth | cost / (nodes x steps) |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for row in rows:
+        growth = row["ms_per_collision"] / c0
+        work = row["nodes"] * row["steps"] / (first["nodes"] * first["steps"])
+        lines.append(
+            f"| x{row['f']} | {row['nodes']} | {row['pairs']} | {row['steps']} | "
+            f"{row['us_per_collision_step']:.3f} | {row['ms_per_collision']:.1f} | "
+            f"{growth:.2f} | {work:.2f} | {growth / work:.2f} |"
+        )
+        print(lines[-1])
+    lines += [
+        "",
+        "Goal 6: the last column stays at about 1 (cost proportional to nodes x steps).",
+        "",
+    ]
+    RESULTS.mkdir(exist_ok=True)
+    (RESULTS / "cost_growth.md").write_text("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
