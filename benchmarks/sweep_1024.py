@@ -2,8 +2,9 @@
 
 h_b/h_r 0.25-5 x 64, free/held, g = 5, 10, 20, 40, v0 = 0.6, 0.82: each configuration is run
 twice as a new process (the first fills the persistent compile cache, the second is timed:
-"compilation from the cache included"), in process (one core) and on a LocalCluster of two
-workers (``--cluster local:2``). Goal: <= 30 s wall.
+"compilation from the cache included"): plain ``msfd sweep`` (in process, one worker thread
+per core by default), ``--workers 1`` (one core), and a LocalCluster of two worker processes
+(``--cluster local:2``). Goal: <= 30 s wall for plain ``msfd sweep``.
 
     python benchmarks/sweep_1024.py            # writes benchmarks/results/sweep_1024.md
 """
@@ -22,7 +23,11 @@ GRID = [
     "--thickness-ratio", "0.25:5:64", "--axial-constraint", "both",
     "--mass-ratio", "5,10,20,40", "--velocity", "0.6,0.82", "-q",
 ]  # fmt: skip
-CONFIGS = {"in process (one core)": [], "--cluster local:2": ["--cluster", "local:2"]}
+CONFIGS = {
+    "plain msfd sweep (worker threads, one per core)": [],
+    "--workers 1 (one core)": ["--workers", "1"],
+    "--cluster local:2": ["--cluster", "local:2"],
+}
 
 
 def run(extra: list[str], cache: str) -> tuple[float, str]:
