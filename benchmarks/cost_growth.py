@@ -66,7 +66,7 @@ def main() -> None:
             "span_ratio": jnp.full(b, 5.0), "width_ratio": jnp.ones(b),
         })  # fmt: skip
         smoothing = _queue.with_flags((0.0, 0.0))
-        dt = jnp.full(b, showcase.solution.dt)
+        dt = jnp.full(b, float(showcase.solution.dt))
         flat, clock, y = _queue._start(p, dt / 0.7, mesh, smoothing, settings, 10**7)
         h = jnp.full(b, float(showcase.solution.dt))
 
@@ -78,9 +78,9 @@ def main() -> None:
         jax.block_until_ready(fn(flat, y))
         programs[f] = (fn, flat, y)
         pairs = sum(q.n_a * q.n_b for q in flat.pairs if hasattr(q, "n_b"))
-        rows.append(dict(f=f, nodes=flat.n_nodes, pairs=pairs, steps=int(showcase.steps)))
+        rows.append(dict(f=f, nodes=flat.n_nodes, pairs=pairs, steps=int(showcase.solution.steps)))
         print(f"mesh x{f}: {flat.n_nodes} nodes, {pairs} contact pairs, showcase "
-              f"{showcase.steps} steps", flush=True)  # fmt: skip
+              f"{int(showcase.solution.steps)} steps", flush=True)  # fmt: skip
     best = dict.fromkeys(programs, float("inf"))
     for _ in range(args.rounds):
         for f, (fn, flat, y) in programs.items():
