@@ -20,11 +20,10 @@ import argparse
 import dataclasses
 import datetime
 import os
-import shutil
-import subprocess
 import sys
-import time
 from pathlib import Path
+
+import _bench
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -36,17 +35,12 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=300)
     parser.add_argument("--rounds", type=int, default=5)
     args = parser.parse_args()
-    if not os.environ.get("MSFD_BENCH_PINNED") and shutil.which("taskset"):
-        env = dict(os.environ, MSFD_BENCH_PINNED="1")
-        core = os.environ.get("MSFD_BENCH_CORE", "0")
-        command = ["taskset", "-c", core, sys.executable, *sys.argv]
-        raise SystemExit(subprocess.call(command, env=env))
-    import equinox as eqx
+    _bench.pin()
     import jax
     import jax.numpy as jnp
 
     import msfd_jax as m
-    from msfd_jax import _engine, _queue, _sweep
+    from msfd_jax import _queue, _sweep
 
     b = args.slots
     base = m.Mesh()
@@ -59,34 +53,16 @@ def main() -> None:
             beam_outer_segments=base.beam_outer_segments * f,
         )
         showcase = m.run(m.CollisionParams(), mesh, m.Settings(t_max=10.0))
-        p = m.CollisionParams(**{
-            "thickness_ratio": jnp.linspace(2.0, 3.0, b), "axial_constraint": jnp.ones(b),
-            "mass_ratio": jnp.full(b, 10.0), "velocity": jnp.full(b, 0.82),
-            "modulus_ratio": jnp.full(b, 500.0), "slenderness": jnp.full(b, 30.0),
-            "span_ratio": jnp.full(b, 5.0), "width_ratio": jnp.ones(b),
-        })  # fmt: skip
+        dt = float(showcase.solution.dt)
         smoothing = _queue.with_flags((0.0, 0.0))
-        dt = jnp.full(b, float(showcase.solution.dt))
-        flat, clock, y = _queue._start(p, dt / 0.7, mesh, smoothing, settings, 10**7)
-        h = jnp.full(b, float(showcase.solution.dt))
-
-        def loop(flat, y, h=h, tol=clock.tolerance):
-            body = lambda i, s: _engine.verlet_substep(flat, s, i * h, h, tol)  # noqa: E731
-            return jax.lax.fori_loop(0, args.steps, body, y)
-
-        fn = eqx.filter_jit(loop)
-        jax.block_until_ready(fn(flat, y))
-        programs[f] = (fn, flat, y)
+        p = _bench.batch_params(b, (2.0, 3.0))
+        flat, clock, y = _queue._start(p, jnp.full(b, dt / 0.7), mesh, smoothing, settings, 10**7)
+        programs[f] = (_bench.substep_loop(args.steps, jnp.full(b, dt), clock.tolerance), flat, y)
         pairs = sum(q.n_a * q.n_b for q in flat.pairs if hasattr(q, "n_b"))
-        rows.append(dict(f=f, nodes=flat.n_nodes, pairs=pairs, steps=int(showcase.solution.steps)))
-        print(f"mesh x{f}: {flat.n_nodes} nodes, {pairs} contact pairs, showcase "
-              f"{int(showcase.solution.steps)} steps", flush=True)  # fmt: skip
-    best = dict.fromkeys(programs, float("inf"))
-    for _ in range(args.rounds):
-        for f, (fn, flat, y) in programs.items():
-            tick = time.perf_counter()
-            jax.block_until_ready(fn(flat, y))
-            best[f] = min(best[f], time.perf_counter() - tick)
+        steps = int(showcase.solution.steps)
+        rows.append(dict(f=f, nodes=flat.n_nodes, pairs=pairs, steps=steps))
+        print(f"mesh x{f}: {flat.n_nodes} nodes, {pairs} contact pairs, showcase {steps} steps")
+    best = _bench.interleaved_best(programs, args.rounds)
     first = rows[0]
     for row in rows:
         row["us_per_collision_step"] = best[row["f"]] / args.steps / b * 1e6

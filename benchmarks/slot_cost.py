@@ -17,11 +17,10 @@ import argparse
 import dataclasses
 import datetime
 import os
-import shutil
-import subprocess
 import sys
-import time
 from pathlib import Path
+
+import _bench
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -32,44 +31,22 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=500)
     parser.add_argument("--rounds", type=int, default=9)
     args = parser.parse_args()
-    if not os.environ.get("MSFD_BENCH_PINNED") and shutil.which("taskset"):
-        env = dict(os.environ, MSFD_BENCH_PINNED="1")
-        core = os.environ.get("MSFD_BENCH_CORE", "0")
-        command = ["taskset", "-c", core, sys.executable, *sys.argv]
-        raise SystemExit(subprocess.call(command, env=env))
-    import equinox as eqx
+    _bench.pin()
     import jax
     import jax.numpy as jnp
 
     import msfd_jax as m
-    from msfd_jax import _engine, _queue, _sweep
+    from msfd_jax import _queue, _sweep
 
     settings = dataclasses.replace(_sweep.SWEEP_SETTINGS, t_max=10.0)
     programs = {}
     for b in args.slots:
-        p = m.CollisionParams(**{
-            "thickness_ratio": jnp.linspace(0.5, 4.0, b), "axial_constraint": jnp.ones(b),
-            "mass_ratio": jnp.full(b, 10.0), "velocity": jnp.full(b, 0.82),
-            "modulus_ratio": jnp.full(b, 500.0), "slenderness": jnp.full(b, 30.0),
-            "span_ratio": jnp.full(b, 5.0), "width_ratio": jnp.ones(b),
-        })  # fmt: skip
         smoothing = _queue.with_flags((0.0, 0.0))
-        flat, clock, y = _queue._start(p, jnp.full(b, 3e-4), m.Mesh(), smoothing, settings, 10**6)
-        h = jnp.full(b, 2e-4)
-
-        def loop(flat, y, h=h, tol=clock.tolerance):
-            body = lambda i, s: _engine.verlet_substep(flat, s, i * h, h, tol)  # noqa: E731
-            return jax.lax.fori_loop(0, args.steps, body, y)
-
-        f = eqx.filter_jit(loop)
-        jax.block_until_ready(f(flat, y))
+        start = (_bench.batch_params(b), jnp.full(b, 3e-4), m.Mesh(), smoothing, settings, 10**6)
+        flat, clock, y = _queue._start(*start)
+        f = _bench.substep_loop(args.steps, jnp.full(b, 2e-4), clock.tolerance)
         programs[b] = (f, flat, y)
-    best = dict.fromkeys(programs, float("inf"))
-    for _ in range(args.rounds):
-        for b, (f, flat, y) in programs.items():
-            tick = time.perf_counter()
-            jax.block_until_ready(f(flat, y))
-            best[b] = min(best[b], time.perf_counter() - tick)
+    best = _bench.interleaved_best(programs, args.rounds)
     date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     lines = [
         "# Substep cost against the slot count (issue 11)",

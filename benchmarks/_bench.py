@@ -1,0 +1,64 @@
+"""Small pieces the core benchmarks share: pinning to one core, a batch of showcase-like
+collisions, a loop of Verlet substeps, and interleaved timing (best round)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+
+def pin() -> None:
+    """Re-execute this script under ``taskset -c CORE`` (MSFD_BENCH_CORE, default 0) once."""
+    if os.environ.get("MSFD_BENCH_PINNED") or shutil.which("taskset") is None:
+        return
+    env = dict(os.environ, MSFD_BENCH_PINNED="1")
+    core = os.environ.get("MSFD_BENCH_CORE", "0")
+    raise SystemExit(subprocess.call(["taskset", "-c", core, sys.executable, *sys.argv], env=env))
+
+
+def batch_params(b: int, thickness=(0.5, 4.0)):
+    """B collisions like the showcase (held, g = 10, v0 = 0.82), h_b/h_r spread over
+    `thickness`, every field an array of shape (B,)."""
+    import jax.numpy as jnp
+
+    import msfd_jax as m
+
+    return m.CollisionParams(**{
+        "thickness_ratio": jnp.linspace(*thickness, b), "axial_constraint": jnp.ones(b),
+        "mass_ratio": jnp.full(b, 10.0), "velocity": jnp.full(b, 0.82),
+        "modulus_ratio": jnp.full(b, 500.0), "slenderness": jnp.full(b, 30.0),
+        "span_ratio": jnp.full(b, 5.0), "width_ratio": jnp.ones(b),
+    })  # fmt: skip
+
+
+def substep_loop(steps: int, h, tolerance):
+    """A compiled ``fori_loop`` of `steps` Verlet substeps of length h (B,): f(flat, y)."""
+    import equinox as eqx
+    import jax
+
+    from msfd_jax import _engine
+
+    def loop(flat, y):
+        body = lambda i, s: _engine.verlet_substep(flat, s, i * h, h, tolerance)  # noqa: E731
+        return jax.lax.fori_loop(0, steps, body, y)
+
+    return eqx.filter_jit(loop)
+
+
+def interleaved_best(programs: dict, rounds: int) -> dict:
+    """Best wall time of each ``(f, *args)`` in `programs`, timed in turn round after round
+    (so a noisy neighbour weighs on all alike); each is run once first (compilation)."""
+    import jax
+
+    for f, *a in programs.values():
+        jax.block_until_ready(f(*a))
+    best = dict.fromkeys(programs, float("inf"))
+    for _ in range(rounds):
+        for key, (f, *a) in programs.items():
+            tick = time.perf_counter()
+            jax.block_until_ready(f(*a))
+            best[key] = min(best[key], time.perf_counter() - tick)
+    return best
