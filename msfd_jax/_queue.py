@@ -305,8 +305,14 @@ def run_queue(
         ]
         for t in threads:
             t.start()
-        for t in threads:
-            t.join()
+        try:
+            for t in threads:
+                t.join()
+        except BaseException as e:  # Ctrl-C: the workers stop after their segment in flight
+            errors.append(e)
+            for t in threads:
+                t.join()
+            raise
         if errors:
             raise errors[0]
     # the smaller programs' compilation (the threads wait for it) is compile time, not run time

@@ -250,3 +250,13 @@ def test_worker_threads_give_the_same_rows(one_worker):
 def test_bad_worker_count_refused(workers):
     with pytest.raises(ValueError, match="workers must be None"):
         sweep(GRID, SMALL_MESH, SHORT, chunk_size=CHUNK, workers=workers)
+
+
+def test_an_error_in_a_worker_thread_reaches_the_caller():
+    def fail(rows, outputs):
+        raise RuntimeError("disk full")
+
+    rows = ROWS20 + [{**r, "mass_ratio": 5.0} for r in ROWS20]
+    with pytest.raises(RuntimeError, match="disk full"):
+        sweep(rows, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=2,
+              on_rows=fail)  # fmt: skip
