@@ -45,6 +45,7 @@ RANGES = {  # log-uniform
 }
 SUCCESS = ("settled", "time limit")
 QUANTILES = (0.5, 0.9, 0.99, 1.0)
+BANDS = ((5.0, 10.0), (10.0, 15.0), (15.0, 20.0), (20.0, 40.01))
 SHOWN = ("thickness_ratio", "mass_ratio", "velocity", "modulus_ratio", "slenderness")
 
 
@@ -142,6 +143,15 @@ def markdown(record: dict) -> str:
         cells += [f"{s['wall_per_row_s']['mean']:.3f}", f"{s['wall_per_row_s']['max']:.3f}"]
         cells += [f"{s['wall_s']:.1f}" if "wall_s" in s else "-"]
         lines.append("| " + " | ".join(str(c) for c in cells) + " |")
+    lines += ["", "## By slenderness R/h_r", ""]
+    lines.append("| R/h_r | rows | success | retries 0/1/2 | success > 1e-4 K0 after |")
+    lines.append("|---" * 5 + "|")
+    for lo, hi in BANDS:
+        band = [r for r in record["rows"] if lo <= r["slenderness"] < hi]
+        ok = [r for r in band if r["status"] in SUCCESS]
+        tries = "/".join(str(sum(r.get("retries", 0) == k for r in band)) for k in (0, 1, 2))
+        above = sum(abs(r["energy_balance_error"]) > 1e-4 for r in ok)
+        lines.append(f"| {lo:g}-{hi:g} | {len(band)} | {len(ok)} | {tries} | {above} |")
     lines += ["", "## Worst rows", ""]
     lines.append("| seed | row | " + " | ".join(SHOWN) + " | held | K0 | status | error / K0 | "
                  "tau end | retries | message |")  # fmt: skip

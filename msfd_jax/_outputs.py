@@ -12,6 +12,7 @@ import numpy as np
 
 from ._attempts import (  # noqa: F401  (MAX_RETRIES, ... stay importable from here)
     BALANCE_RETRIES,
+    BALANCE_RETRY_ABOVE,
     MAX_RETRIES,
     RETRY_FACTOR,
     RETRY_NOTE,
@@ -353,7 +354,8 @@ def run(
     run went non-finite, broke its energy balance or hit the step bound, unless
     ``check=False``. A run stopped for a reason a smaller step can fix (`step_is_cause`) is
     first rerun with the step halved, at most `MAX_RETRIES` times (issue 12); so is a run
-    that reports success with its balance worse than `BALANCE_TOLERANCE` K0, at most
+    that reports success with its balance open by more than `BALANCE_RETRY_ABOVE` (2e-4) K0
+    (one open by 1e-4 to 2e-4 is only flagged, `balance_warning`), at most
     `BALANCE_RETRIES` halvings (`needs_retry`). The attempt reported is the last one, or the
     successful one with the smallest |error| (`keep_earlier`; its message then ends with
     `RETRY_NOTE`); `retries` and `safety` are those of the reported run, its message names

@@ -12,7 +12,13 @@ from conftest import SMALL_MESH
 
 import msfd_jax as m
 from msfd_jax import _attempts, _outputs
-from msfd_jax._attempts import BALANCE_RETRIES, RETRY_NOTE, keep_earlier, needs_retry
+from msfd_jax._attempts import (
+    BALANCE_RETRIES,
+    BALANCE_RETRY_ABOVE,
+    RETRY_NOTE,
+    keep_earlier,
+    needs_retry,
+)
 from msfd_jax._results import BALANCE_TOLERANCE, RESULTS
 from msfd_jax._retry import solve_with_retries
 from msfd_jax._sweep import SWEEP_SETTINGS
@@ -26,6 +32,9 @@ def test_the_rules_retry_open_balances_and_keep_the_best_success():
     error = np.asarray([5e-3, 5e-5, 5e-3, 5e-3])
     dt, crit = np.full(4, 0.7), np.ones(4)
     assert list(needs_retry(result, dt, crit, error, 0)) == [True, False, True, False]
+    # open by more than BALANCE_TOLERANCE but not BALANCE_RETRY_ABOVE: flagged, not rerun
+    assert BALANCE_TOLERANCE < BALANCE_RETRY_ABOVE
+    assert not needs_retry(result[:1], dt[:1], crit[:1], [0.99 * BALANCE_RETRY_ABOVE], 0)[0]
     assert not needs_retry(result, dt, crit, error, BALANCE_RETRIES).any()
     # an earlier success is kept over a later failure or a later success that is no better
     later_result = np.asarray([BROKEN, OK, OK, OK])
@@ -59,10 +68,11 @@ def _fake(errors: dict[float, list]):
 
 
 def test_a_sweep_reruns_open_balances_and_reports_the_best_attempt():
-    errors = {  # row 0 closes at once; 1 at the first retry; 2 best at 0.35; 3 fails at 0.35
-        0.7: [1e-5, 3e-3, 4e-2, 2e-3],
-        0.35: [None, 5e-5, 3e-4, np.nan],
-        0.175: [None, None, 9e-4, None],
+    errors = {  # row 0 closes at once; 1 at the first retry; 2 best at 0.35; 3 fails at 0.35;
+        # 4 is open by less than BALANCE_RETRY_ABOVE: kept, flagged by its own message
+        0.7: [1e-5, 3e-3, 4e-2, 2e-3, 1.5e-4],
+        0.35: [None, 5e-5, 3e-4, np.nan, None],
+        0.175: [None, None, 9e-4, None, None],
     }
     solve, seen = _fake({k: [np.nan if v is None else v for v in e] for k, e in errors.items()})
     streamed = {}
@@ -72,26 +82,28 @@ def test_a_sweep_reruns_open_balances_and_reports_the_best_attempt():
             assert r not in streamed  # each row once, with its final outputs
             streamed[r] = {k: np.asarray(v)[i] for k, v in part.items()}
 
-    columns = {"row": np.arange(4)}
+    columns = {"row": np.arange(5)}
     settings = dataclasses.replace(m.Settings(), safety=0.7)
     out = solve_with_retries(solve, columns, None, settings, on_rows=on_rows)
-    assert seen == [(0.7, [0, 1, 2, 3]), (0.35, [1, 2, 3]), (0.175, [2])]
-    assert list(out["retries"]) == [0, 1, 1, 0]
-    assert np.allclose(out["safety"], [0.7, 0.35, 0.35, 0.7])  # the reported run's step
-    assert np.allclose(out["energy_balance_error"], [1e-5, 5e-5, 3e-4, 2e-3])
-    assert list(out["result"]) == [OK] * 4
+    assert seen == [(0.7, [0, 1, 2, 3, 4]), (0.35, [1, 2, 3]), (0.175, [2])]
+    assert list(out["retries"]) == [0, 1, 1, 0, 0]
+    assert np.allclose(out["safety"], [0.7, 0.35, 0.35, 0.7, 0.7])  # the reported run's step
+    assert np.allclose(out["energy_balance_error"], [1e-5, 5e-5, 3e-4, 2e-3, 1.5e-4])
+    assert list(out["result"]) == [OK] * 5
     msg = list(out["message"])
     assert msg[0] == "at 0.7 row 0"
     assert msg[1].startswith("retried with dt = 0.35") and msg[1].endswith("at 0.35 row 1")
     assert "after: at 0.7 row 1" in msg[1]
     assert msg[2].endswith(f"at 0.35 row 2{RETRY_NOTE}") and "after: at 0.7 row 2" in msg[2]
     assert msg[3] == f"at 0.7 row 3{RETRY_NOTE}"  # the retry failed: the first run stands
-    for r in range(4):
+    assert msg[4] == "at 0.7 row 4"
+    for r in range(5):
         assert streamed[r]["message"] == msg[r] and streamed[r]["retries"] == out["retries"][r]
 
 
 def test_run_retries_an_open_balance_until_it_closes():
-    # the showcase on the coarse mesh closes to 2.1e-4 K0 at safety 0.7, 1.8e-5 at 0.35
+    # the showcase on the coarse mesh closes to 2.1e-4 K0 at safety 0.7 (above
+    # BALANCE_RETRY_ABOVE), 1.8e-5 at 0.35
     c = m.run(m.CollisionParams(), SMALL_MESH, LEAN)
     assert c.status == "settled" and c.retries == 1
     assert c.safety == pytest.approx(0.35) and not c.balance_warning
@@ -105,7 +117,7 @@ def test_run_retries_an_open_balance_until_it_closes():
 
 def test_run_reports_its_best_attempt_when_no_step_closes_the_balance(monkeypatch):
     # no balance closes to 1e-12 K0: every success is rerun, down to BALANCE_RETRIES halvings
-    monkeypatch.setattr(_attempts, "BALANCE_TOLERANCE", 1e-12)
+    monkeypatch.setattr(_attempts, "BALANCE_RETRY_ABOVE", 1e-12)
     monkeypatch.setattr(_outputs, "BALANCE_TOLERANCE", 1e-12)
     attempts, solve = [], _outputs._solve_timed
 
