@@ -6,10 +6,11 @@ with the step halved (`_outputs.smaller_step`), at most `_outputs.MAX_RETRIES` t
 `run` does for one collision; so is a collision that reports success with its energy balance
 open by more than `_outputs.BALANCE_RETRY_ABOVE` (2e-4) K0, at most
 `_outputs.BALANCE_RETRIES` halvings (`_outputs.needs_retry`). Rows failing for another
-reason (a crushed ring bar without collapse contacts, ...) are not retried. The attempt reported is the last one, or an earlier
-success that closed its balance better (`_outputs.keep_earlier`; its message then ends with
-`RETRY_NOTE`). Each row gets `retries` and `safety` (= dt / dt_crit) of the run reported; a
-retried row's message names the step used and the first run's failure or open balance.
+reason (a crushed ring bar without collapse contacts, ...) are not retried. The attempt
+reported is the last one, or an earlier success that closed its balance better
+(`_outputs.keep_earlier`; its message then ends with `RETRY_NOTE`). Each row gets `retries`
+and `safety` (= dt / dt_crit) of the run reported; a retried row's message names the step
+used and the first run's failure or open balance.
 """
 
 from __future__ import annotations
