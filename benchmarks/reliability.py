@@ -7,11 +7,15 @@ default settings. Prints and writes ``benchmarks/results/reliability.{json,md}``
 status per seed and in all, the distribution of |energy balance error| / K0 among the runs
 that report success (settled, time limit), the time per row, and the worst rows with their
 inputs. ``--quick`` runs the small test mesh (6, 8 + 2) with fewer rows and writes
-``reliability_quick.{json,md}``.
+``reliability_quick.{json,md}``. ``--collapse`` runs `Mesh(collapse_contacts=True)` on the
+designs whose slenderness that mesh's validity check allows (the others are counted as
+skipped) and writes ``reliability_collapse.{json,md}``. Rows record `retries` and `safety`
+(issue 12: failures a smaller step can fix and successes with an open balance are rerun).
 
     taskset -c 1 python benchmarks/reliability.py --seeds 0 1 2 --n 200
     taskset -c 1 python benchmarks/reliability.py --quick
     taskset -c 1 python benchmarks/reliability.py --t-max 10   # the former fixed cap
+    taskset -c 0 python benchmarks/reliability.py --seeds 0 --n 100 --collapse
 """
 
 from __future__ import annotations
@@ -26,6 +30,8 @@ from pathlib import Path
 import numpy as np
 
 import msfd_jax as m
+from msfd_jax import _attempts
+from msfd_jax._params import _check_collapse
 from msfd_jax._provenance import now, versions
 from msfd_jax._sweep import SWEEP_SETTINGS, sweep
 
@@ -39,6 +45,7 @@ RANGES = {  # log-uniform
 }
 SUCCESS = ("settled", "time limit")
 QUANTILES = (0.5, 0.9, 0.99, 1.0)
+BANDS = ((5.0, 10.0), (10.0, 15.0), (15.0, 20.0), (20.0, 40.01))
 SHOWN = ("thickness_ratio", "mass_ratio", "velocity", "modulus_ratio", "slenderness")
 
 
@@ -50,20 +57,34 @@ def designs(seed: int, n: int) -> list[dict[str, float]]:
     return [{k: float(v[i]) for k, v in cols.items()} for i in range(n)]
 
 
-def run_seed(seed: int, n: int, mesh: m.Mesh, settings: m.Settings) -> list[dict]:
-    rows = designs(seed, n)
+def allowed(row: dict, mesh: m.Mesh) -> bool:
+    """Whether `mesh`'s validity check accepts the design (only collapse contacts refuse)."""
+    if not mesh.collapse_contacts:
+        return True
+    try:
+        _check_collapse(row["slenderness"], mesh.ring_segments)
+    except ValueError:
+        return False
+    return True
+
+
+def run_seed(seed: int, n: int, mesh: m.Mesh, settings: m.Settings) -> tuple[list[dict], int]:
+    every = designs(seed, n)
+    index = [i for i, row in enumerate(every) if allowed(row, mesh)]
+    rows = [every[i] for i in index]
     tick = time.perf_counter()
     table = sweep(rows, mesh, settings)
     wall = time.perf_counter() - tick
     out = []
     for i, row in enumerate(table.rows()):
         keep = {k: row[k] for k in (*rows[i], "status", "energy_balance_error", "t_end")}
-        keep.update(seed=seed, index=i, k0=row["k0"], steps=row["steps"])
+        keep.update(seed=seed, index=index[i], k0=row["k0"], steps=row["steps"])
+        keep.update(retries=int(row.get("retries", 0)), safety=float(row.get("safety", 0.7)))
         keep.update(wall_time_s=row["wall_time_s"], message=row["message"])
         keep["balance_warning"] = bool(row.get("balance_warning", False))
         out.append(keep)
-    print(f"seed {seed}: {n} rows in {wall:.1f} s (compile included)", flush=True)
-    return out
+    print(f"seed {seed}: {len(rows)} rows in {wall:.1f} s (compile included)", flush=True)
+    return out, n - len(rows)
 
 
 def summary(rows: list[dict]) -> dict:
@@ -84,6 +105,7 @@ def summary(rows: list[dict]) -> dict:
             abs(r["energy_balance_error"]) > 1e-4 and not r["balance_warning"] for r in ok
         ),
         "flagged": sum(r["balance_warning"] for r in rows),
+        "retried": {str(k): sum(r.get("retries", 0) == k for r in rows) for k in (0, 1, 2)},
         "wall_per_row_s": {"mean": float(wall.mean()), "max": float(wall.max())},
         "t_end_max": float(max(r["t_end"] for r in rows)),
     }
@@ -100,27 +122,45 @@ def markdown(record: dict) -> str:
         "",
         "Log-uniform h_b/h_r 0.2-8, g 0.5-200, v0 0.05-3, E/Y 100-2000, R/h_r 5-40; free or "
         "held with equal odds. Balance errors |(K + U + D - K0)/K0| are over the runs that "
-        "report success (settled or time limit); *flagged* rows carry `balance_warning`.",
+        "report success (settled or time limit); *flagged* rows carry `balance_warning`. "
+        "retries 0/1/2: rows reported from the first run, one or two halvings of the step; "
+        "s/row: each row's share of the batch it was reported from; sweep wall s: the seed's "
+        "whole sweep, compile and every retry included; skipped: designs the mesh's validity "
+        "check refuses (collapse contacts need R/h_r below about 19 on 15 ring segments).",
         "",
         "| seed | rows | " + " | ".join(statuses) + " | success > 1e-4 K0 | > 1e-3 K0 | "
-        "unflagged > 1e-4 | median | 99 % | max | s/row mean | s/row max |",
-        "|---" * (len(statuses) + 11) + "|",
+        "unflagged > 1e-4 | median | 99 % | max | retries 0/1/2 | skipped | s/row mean | "
+        "s/row max | sweep wall s |",
+        "|---" * (len(statuses) + 14) + "|",
     ]
     for name, s in [*per.items(), ("all", record["total"])]:
         q = s["balance_quantiles"]
         cells = [name, s["rows"], *[s["status"].get(k, 0) for k in statuses]]
         cells += [s["above_1e-4"], s["above_1e-3"], s["success_above_1e-4_unflagged"]]
         cells += [f"{q.get(k, float('nan')):.2g}" for k in ("0.5", "0.99", "1.0")]
+        cells += ["/".join(str(s.get("retried", {}).get(k, 0)) for k in "012")]
+        cells += [s.get("skipped", 0)]
         cells += [f"{s['wall_per_row_s']['mean']:.3f}", f"{s['wall_per_row_s']['max']:.3f}"]
+        cells += [f"{s['wall_s']:.1f}" if "wall_s" in s else "-"]
         lines.append("| " + " | ".join(str(c) for c in cells) + " |")
+    lines += ["", "## By slenderness R/h_r", ""]
+    lines.append("| R/h_r | rows | success | retries 0/1/2 | success > 1e-4 K0 after |")
+    lines.append("|---" * 5 + "|")
+    for lo, hi in BANDS:
+        band = [r for r in record["rows"] if lo <= r["slenderness"] < hi]
+        ok = [r for r in band if r["status"] in SUCCESS]
+        tries = "/".join(str(sum(r.get("retries", 0) == k for r in band)) for k in (0, 1, 2))
+        above = sum(abs(r["energy_balance_error"]) > 1e-4 for r in ok)
+        lines.append(f"| {lo:g}-{hi:g} | {len(band)} | {len(ok)} | {tries} | {above} |")
     lines += ["", "## Worst rows", ""]
     lines.append("| seed | row | " + " | ".join(SHOWN) + " | held | K0 | status | error / K0 | "
-                 "tau end | message |")  # fmt: skip
-    lines.append("|---" * (len(SHOWN) + 8) + "|")
+                 "tau end | retries | message |")  # fmt: skip
+    lines.append("|---" * (len(SHOWN) + 9) + "|")
     for r in record["worst"]:
         cells = [r["seed"], r["index"], *[f"{r[k]:.4g}" for k in SHOWN]]
         cells += [int(r["axial_constraint"]), f"{r['k0']:.3g}", r["status"]]
-        cells += [f"{r['energy_balance_error']:+.2e}", f"{r['t_end']:.4g}", r["message"]]
+        cells += [f"{r['energy_balance_error']:+.2e}", f"{r['t_end']:.4g}"]
+        cells += [r.get("retries", 0), r["message"]]
         lines.append("| " + " | ".join(str(c) for c in cells) + " |")
     return "\n".join(lines) + "\n"
 
@@ -132,24 +172,40 @@ def main(argv=None) -> dict:
     parser.add_argument("--quick", action="store_true", help="small mesh, 24 rows per seed")
     parser.add_argument("--t-max", type=float, default=None, help="a fixed cap (default: auto)")
     parser.add_argument("--worst", type=int, default=12, help="worst rows listed")
+    parser.add_argument("--collapse", action="store_true", help="Mesh(collapse_contacts=True)")
+    parser.add_argument(
+        "--no-balance-retry",
+        action="store_true",
+        help="no rerun of successes with an open balance (the model before issue 12 item 1)",
+    )
     parser.add_argument("--name", default=None, help="output name (default reliability[_quick])")
     args = parser.parse_args(argv)
     n = args.n or (24 if args.quick else 200)
     mesh = m.Mesh(6, 8, 2) if args.quick else m.Mesh()
+    mesh = dataclasses.replace(mesh, collapse_contacts=args.collapse)
     settings = SWEEP_SETTINGS
     if args.t_max is not None:
         settings = dataclasses.replace(settings, t_max=args.t_max)
-    rows, per = [], {}
+    if args.no_balance_retry:
+        _attempts.BALANCE_RETRIES = 0
+    rows, per, skipped = [], {}, 0
     for seed in args.seeds:
-        part = run_seed(seed, n, mesh, settings)
+        tick = time.perf_counter()
+        part, left = run_seed(seed, n, mesh, settings)
+        wall = time.perf_counter() - tick
         rows += part
-        per[str(seed)] = summary(part)
+        skipped += left
+        per[str(seed)] = {**summary(part), "skipped": left, "wall_s": wall}
+    total_wall = sum(v["wall_s"] for v in per.values())
     worst = sorted(rows, key=lambda r: -abs(r["energy_balance_error"]))[: args.worst]
     command = (
-        "taskset -c 1 python benchmarks/reliability.py --seeds "
+        "taskset -c 0 python benchmarks/reliability.py --seeds "
         + " ".join(map(str, args.seeds))
         + f" --n {n}"
         + (" --quick" if args.quick else "")
+        + (" --collapse" if args.collapse else "")
+        + (" --no-balance-retry" if args.no_balance_retry else "")
+        + (f" --name {args.name}" if args.name else "")
         + (f" --t-max {args.t_max:g}" if args.t_max is not None else "")
     )
     record = {
@@ -157,16 +213,18 @@ def main(argv=None) -> dict:
         "date": now(),
         "machine": f"{platform.node()} ({platform.machine()}, cpu)",
         "mesh": f"mesh {mesh.ring_segments}/{mesh.beam_contact_segments}+"
-        f"{mesh.beam_outer_segments}",
+        f"{mesh.beam_outer_segments}" + (", collapse contacts" if args.collapse else ""),
         "settings": f"t_max {settings.t_max}, energy_guard {settings.energy_guard}, "
         f"safety {settings.safety}",
         "versions": versions(),
         "per_seed": per,
-        "total": summary(rows),
+        "total": {**summary(rows), "skipped": skipped, "wall_s": total_wall},
         "worst": worst,
         "rows": rows,
     }
-    name = args.name or ("reliability_quick" if args.quick else "reliability")
+    name = args.name or (
+        "reliability" + ("_quick" if args.quick else "") + ("_collapse" if args.collapse else "")
+    )
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / f"{name}.json").write_text(json.dumps(record, indent=1) + "\n")
     text = markdown(record)

@@ -1,11 +1,16 @@
-"""Automatic recovery of a sweep's collisions (issue 12 item 3): a smaller step, bounded.
+"""Automatic recovery of a sweep's collisions (issue 12 items 1, 3): a smaller step, bounded.
 
 A collision stopped by a guard for a reason a smaller step can fix (`_outputs.step_is_cause`:
 non-finite or energy balance broken with dt above 0.95 x the stability limit) is solved again
 with the step halved (`_outputs.smaller_step`), at most `_outputs.MAX_RETRIES` times, as
-`run` does for one collision. Rows failing for another reason (a crushed ring bar without
-collapse contacts, ...) are not retried. Each row gets `retries` and `safety` (= dt / dt_crit
-of the run reported); a retried row's message names the step used and the first failure.
+`run` does for one collision; so is a collision that reports success with its energy balance
+open by more than `_outputs.BALANCE_RETRY_ABOVE` (2e-4) K0, at most
+`_outputs.BALANCE_RETRIES` halvings (`_outputs.needs_retry`). Rows failing for another
+reason (a crushed ring bar without collapse contacts, ...) are not retried. The attempt
+reported is the last one, or an earlier success that closed its balance better
+(`_outputs.keep_earlier`; its message then ends with `RETRY_NOTE`). Each row gets `retries`
+and `safety` (= dt / dt_crit) of the run reported; a retried row's message names the step
+used and the first run's failure or open balance.
 """
 
 from __future__ import annotations
@@ -14,7 +19,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ._outputs import MAX_RETRIES, smaller_step, step_is_cause
+from ._outputs import RETRY_NOTE, keep_earlier, needs_retry, smaller_step
 
 RETRY_OUTPUTS = ("retries", "safety")
 
@@ -50,18 +55,41 @@ def _prefixed(part: dict, first: np.ndarray) -> dict:
     return out
 
 
+def _chosen(current: dict, new: dict, first: np.ndarray | None) -> dict:
+    """Per row, the later attempt `new` or, where `keep_earlier`, the `current` one (its
+    message noted); `new` rows are prefixed with the first run's message when `first` is
+    given (the top level)."""
+    keep = keep_earlier(
+        current["result"],
+        current["energy_balance_error"],
+        new["result"],
+        new["energy_balance_error"],
+    )
+    if first is not None:
+        new = _prefixed(new, first)
+    out = {}
+    for k, v in new.items():
+        cur, v = np.asarray(current[k]), np.asarray(v)
+        if k == "message":
+            cur = np.asarray([f"{m}{RETRY_NOTE}" for m in cur.tolist()], dtype=str)
+        merged = np.where(keep, cur.astype(object), v.astype(object)).tolist()
+        out[k] = np.asarray(merged, dtype=str if v.dtype.kind == "U" else v.dtype)
+    return out
+
+
 def solve_with_retries(
     solve: Callable, columns: dict, mesh, settings, *, on_rows=None, attempt: int = 0, **kw
 ) -> dict:
     """`solve(columns, mesh, settings, on_rows=..., **kw)` (the sweep's unit of work) with
-    the rows `step_is_cause` names solved again at a smaller step; output columns gain
+    the rows `needs_retry` names solved again at a smaller step; output columns gain
     `RETRY_OUTPUTS`. `on_rows` sees each row once, with its final outputs."""
     again, first = [], []
 
     def take(rows, part):
         rows, part = np.asarray(rows), _counted(part, attempt)
-        retry = step_is_cause(part["result"], part["dt"], part["dt_critical"])
-        retry = retry & (attempt < MAX_RETRIES)
+        retry = needs_retry(
+            part["result"], part["dt"], part["dt_critical"], part["energy_balance_error"], attempt
+        )
         again.append(rows[retry])
         first.append(np.asarray(part["message"])[retry])
         if on_rows is not None and (~retry).any():
@@ -73,19 +101,22 @@ def solve_with_retries(
         return out
     before = dict(zip(rows.tolist(), np.concatenate(first).tolist(), strict=True))
 
+    def firsts(these):
+        return np.asarray([before[r] for r in these.tolist()]) if attempt == 0 else None
+
+    def current(these):
+        return {k: np.asarray(out[k])[these] for k in out}
+
     def relay(sub_rows, part):
         sub_rows = rows[np.asarray(sub_rows)]
-        if attempt == 0:
-            part = _prefixed(part, np.asarray([before[r] for r in sub_rows.tolist()]))
         if on_rows is not None:
-            on_rows(sub_rows, part)
+            on_rows(sub_rows, _chosen(current(sub_rows), part, firsts(sub_rows)))
 
     sub = {k: np.asarray(v)[rows] for k, v in columns.items()}
     redone = solve_with_retries(
         solve, sub, mesh, smaller_step(settings), on_rows=relay, attempt=attempt + 1, **kw
     )
-    if attempt == 0:
-        redone = _prefixed(redone, np.asarray([before[r] for r in rows.tolist()]))
+    redone = _chosen(current(rows), redone, firsts(rows))
     for k, v in redone.items():
         merged = np.asarray(out[k]).astype(object)
         merged[rows] = np.asarray(v).astype(object)

@@ -64,9 +64,10 @@ class Settings(eqx.Module):
       kept after issue 12's reliability benchmark, docs/stability.md: once joint folds past pi
       no longer book spurious dissipation, what a successful run leaves open above 1e-4 K0 is
       the sharp contact at the default step in slow, light impacts, up to ~4e-2 K0 of a small
-      K0, which a smaller step closes; such runs keep their status with `balance_warning` and
-      a message saying how far the balance is open, while an unstable step or a collapse the
-      model cannot follow still trips the guard).
+      K0, which a smaller step closes; `run` and `sweep` rerun such runs at half the step, at
+      most twice (issue 12 item 1, `_attempts.BALANCE_RETRIES`), and report the best attempt;
+      one still open keeps its status with `balance_warning` and a message saying how far,
+      while an unstable step or a collapse the model cannot follow still trips the guard).
     - `max_steps`: static bound on the number of diffrax steps (None: from t_max / dt).
     - `substeps`: Verlet steps per diffrax step (histories are interpolated linearly between
       diffrax steps, and the stopping rule is checked once per diffrax step).

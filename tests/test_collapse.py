@@ -69,19 +69,22 @@ PAST_LIMIT = m.Settings(safety=2.2, t_max=1.5, history_points=31, shape_times=()
 
 def test_run_retries_with_a_smaller_step():
     c = m.run(m.CollisionParams(), SMALL_MESH, PAST_LIMIT)
-    assert c.retries == 1 and c.safety == pytest.approx(1.1)
+    # 2.2 breaks the balance, 1.1 recovers with its balance open (> 1e-4 K0), so the step is
+    # halved once more for the balance (issue 12 item 1) and 0.55 is reported
+    assert c.retries == 2 and c.safety == pytest.approx(0.55)
     assert int(c.solution.result) not in FAILED
     assert c.message.startswith("retried with dt = ") and "2.20 x the computed" in c.message
     record = c.to_json()
-    assert record["retries"] == 1 and record["safety"] == pytest.approx(1.1)
+    assert record["retries"] == 2 and record["safety"] == pytest.approx(0.55)
     assert record["settings"]["safety"] == 2.2  # the settings asked for: a rerun retries too
 
 
 def test_sweep_retries_step_failures_only():
     settings = m.Settings(safety=2.2, t_max=1.5, history_points=2, shape_times=(), max_steps=2**10)
     table = m.sweep([{}, {"velocity": 0.5}], SMALL_MESH, settings, chunk_size=8)
-    assert list(table["retries"]) == [1, 1]
-    assert np.allclose(table["safety"], 1.1)
+    # one halving for the broken balance, a second where 1.1 leaves the balance open
+    assert set(table["retries"]) <= {1, 2}
+    assert np.allclose(table["safety"], 2.2 * 0.5 ** table["retries"])
     assert not table.failed.any()
     assert all(msg.startswith("retried with dt") for msg in table["message"])
 
