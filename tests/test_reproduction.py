@@ -27,11 +27,15 @@ ROWS = (
 
 @pytest.fixture(scope="module")
 def table():
-    # safety 0.35: at the default 0.7 the coarse mesh's stiff sharp contact (issue 9) leaves
-    # energy balance errors up to 2e-3 K0 in these runs; at 0.35 at most 4.5e-4 (measured)
-    settings = m.Settings(safety=0.35, history_points=2, shape_times=())
+    # safety 0.0875 (an eighth of the default step): the contact dissipation compared below
+    # converges only there on this coarse mesh. g = 5 / g = 20 at v0 = 1.6 (measured, issue 12):
+    # 0.0893 / 0.0979 M_pr at safety 0.35 (two rows then rerun at half the step by the balance
+    # retry, so the pair ran at different steps), 0.0893 / 0.0988 at 0.175, 0.0891 / 0.0888
+    # (0.3 %) at 0.0875, where the balance closes to 2.3e-5 K0 and no row is rerun.
+    settings = m.Settings(safety=0.0875, history_points=2, shape_times=())
     t = m.sweep(ROWS, SMALL_MESH, settings, chunk_size=len(ROWS), progress=False)
     assert set(t["status"]) == {"settled"}
+    assert np.all(t["retries"] == 0)  # every row at the same step
     assert np.max(np.abs(t["energy_balance_error"])) < 1e-3
     return t
 
@@ -63,16 +67,14 @@ def test_beam_axial_dissipation_falls_with_thickness_under_constraint(table):
 
 def test_local_contact_dissipation_small_and_independent_of_the_attached_mass(table):
     # Fig. 16 / Sect. 4.3.2: the collision stage is local, so the contact dissipation depends
-    # on v0 only. Same v0 = 1.6, g = 5 and 20: equal to 5 %. Measured since issue 9's
-    # stiffer contact: 0.0930 and 0.0963 M_pr (3.5 %) on this coarse mesh, where re-contacts
-    # after the collision stage also yield and depend on the mass (the paper mesh: 0.0 %
-    # spread over g = 2-40, benchmarks/results/reproduce/reproduce.md); it was 0.0358 both
-    # Tolerance 8 % since issue 11 (was 5 %): the g = 20 value moves with the rounding of the
-    # coarse mesh's sharp re-contacts: 0.0962, 0.0968 and 0.0925 M_pr for v0 and v0 moved by
-    # one and two ulp (single runs; measured), and 0.0979 in the batched core's sweep.
+    # on v0 only. Same v0 = 1.6, g = 5 and 20: equal to 5 % (the paper mesh: 0.0 % spread over
+    # g = 2-40, benchmarks/results/reproduce/reproduce.md). On this coarse mesh the spread is a
+    # step-size effect of the sharp re-contacts: 9.6 % at safety 0.35, 0.3 % at the fixture's
+    # 0.0875 (see `table`); issue 11 had widened this tolerance to 8 % for it, issue 12
+    # restores 5 % with the smaller step.
     absolute = table["contact"] * table["k0"]
     g5, g20 = absolute[3], absolute[4]
-    assert g5 > 0.01 and g20 == pytest.approx(g5, rel=0.08)
+    assert g5 > 0.01 and g20 == pytest.approx(g5, rel=0.05)
     assert np.max(table["contact"]) < 0.05  # "a very small portion" of K0
 
 
