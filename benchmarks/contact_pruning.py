@@ -15,23 +15,14 @@ the cost alone. Each variant timed in turn, round after round, best round kept.
 
 import datetime
 import os
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 
-if not os.environ.get("MSFD_BENCH_PINNED") and shutil.which("taskset"):
-    env = dict(os.environ, MSFD_BENCH_PINNED="1")
-    raise SystemExit(
-        subprocess.call(
-            ["taskset", "-c", os.environ.get("MSFD_BENCH_CORE", "0"), sys.executable, *sys.argv],
-            env=env,
-        )
-    )
-import time
+import _bench
 
-import jax
-import jax.numpy as jnp
+_bench.pin()
+
+import jax  # noqa: E402  (after the pin: the re-executed process imports it)
+import jax.numpy as jnp  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 K = 1000
@@ -108,19 +99,12 @@ for B in (16, 32, 64):
         [jnp.linspace(0, 2, NB)[:, None] + 0 * jnp.ones((NB, B)), 0.0 * jnp.ones((NB, B))], 1
     )
     dp = jnp.zeros((NA, NB, B))
-    fns = {
-        "dense": loop(dense),
-        "gather W4": loop(pruned(4, "gather")),
-        "onehot W4": loop(pruned(4, "onehot")),
+    programs = {
+        "dense": (loop(dense), xr, xb, dp),
+        "gather W4": (loop(pruned(4, "gather")), xr, xb, dp),
+        "onehot W4": (loop(pruned(4, "onehot")), xr, xb, dp),
     }
-    best = {k: 1e9 for k in fns}
-    for f in fns.values():
-        jax.block_until_ready(f(xr, xb, dp))
-    for _ in range(5):
-        for k, f in fns.items():
-            t = time.perf_counter()
-            jax.block_until_ready(f(xr, xb, dp))
-            best[k] = min(best[k], time.perf_counter() - t)
+    best = _bench.interleaved_best(programs, 5)
     print(B, {k: f"{v / K / B * 1e6:.3f} us/coll" for k, v in best.items()}, flush=True)
     ROWS.append((B, best))
 date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")

@@ -10,18 +10,7 @@ from typing import Any
 import jax
 import numpy as np
 
-from ._attempts import (  # noqa: F401  (MAX_RETRIES, ... stay importable from here)
-    BALANCE_RETRIES,
-    BALANCE_RETRY_ABOVE,
-    MAX_RETRIES,
-    RETRY_FACTOR,
-    RETRY_NOTE,
-    STEP_CAUSE,
-    keep_earlier,
-    needs_retry,
-    smaller_step,
-    step_is_cause,
-)
+from ._attempts import RETRY_NOTE, STEP_CAUSE, keep_earlier, needs_retry, smaller_step
 from ._collapse import BlockFaceContact, SelfContact
 from ._engine import FOLD_LIMIT
 from ._export import compile_program

@@ -153,7 +153,6 @@ def run_queue(
     slots: int = DEFAULT_SLOTS,
     segment: int = DEFAULT_SEGMENT,
     workers: int = 1,
-    compact: bool = True,
     on_done: Callable[[np.ndarray, Solution, np.ndarray], None],
 ) -> dict:
     """Run every collision of `params` (columns of CollisionParams fields) through B slots.
@@ -167,7 +166,7 @@ def run_queue(
     worker count, the number of segments and of compactions (below), the compile and run
     times (run time: wall time of the whole queue, compile excluded).
 
-    `compact`: once the queue is empty and at most half of a worker's slots still run, their
+    The tail: once the queue is empty and at most half of a worker's slots still run, their
     collisions move into a program of half as many slots (down to `MIN_SLOTS`; compiled when
     first needed, its compilation counted as compile time): the tail of a sweep no longer
     pays for stopped slots. A collision's result does not depend on its slot or the slot
@@ -191,6 +190,24 @@ def run_queue(
         with lock:
             return [queue.popleft() for _ in range(min(count, len(queue)))]
 
+    compiled: list[float] = []  # seconds of each program size's compilation
+    programs: dict[int, tuple] = {}
+    compiling = threading.Lock()
+
+    def programs_for(size, state):
+        """The segment and report programs for `size` slots, compiled ahead of time (once; a
+        thread that needs a size another is compiling waits for it)."""
+        with compiling:
+            if size not in programs:
+                tick = time.perf_counter()
+                flat, clock, y = state
+                programs[size] = (
+                    _segment.lower(flat, clock, y, settings, segment).compile(),
+                    _report.lower(flat, clock, y).compile(),
+                )
+                compiled.append(time.perf_counter() - tick)
+            return programs[size]
+
     tick = time.perf_counter()
     starts = []
     for _ in range(workers):
@@ -202,29 +219,14 @@ def run_queue(
     flat, clock, y = starts[0][1]
     # compile the programs ahead of time (once, before the threads start), so that their
     # compilation is timed apart from the run
-    segment_fn = _segment.lower(flat, clock, y, settings, segment).compile()
+    programs_for(b, (flat, clock, y))
     refill_fn = _refill.lower(
         flat, clock, y, jnp.zeros(b, bool), *batch_of(np.zeros(b, np.int64)),
         mesh, smoothing, settings, max_steps,
     ).compile()  # fmt: skip
-    report_fn = _report.lower(flat, clock, y).compile()
-    programs = {b: (segment_fn, report_fn)}
-    compile_s = [time.perf_counter() - tick]
+    compile_s = time.perf_counter() - tick
     segments, halvings = [0] * workers, [0] * workers
     errors: list[BaseException] = []
-    compiling = threading.Lock()
-
-    def programs_for(size, state):
-        with compiling:  # one thread compiles a size; the others wait for it
-            if size not in programs:
-                tick = time.perf_counter()
-                flat, clock, y = state
-                programs[size] = (
-                    _segment.lower(flat, clock, y, settings, segment).compile(),
-                    _report.lower(flat, clock, y).compile(),
-                )
-                compile_s.append(time.perf_counter() - tick)
-            return programs[size]
 
     def halve(state, slot_row, busy):
         """The running slots (at most half) moved into a batch of half the size."""
@@ -280,14 +282,14 @@ def run_queue(
                     max_steps,
                 )  # fmt: skip
                 slot_row[fill] = rows
-            running = int((slot_row >= 0).sum())
-            size = len(slot_row)
-            if compact and not rows and 0 < running <= size // 2 and size // 2 >= MIN_SLOTS:
-                while running <= size // 2 and size // 2 >= MIN_SLOTS:
-                    (flat, clock, y), slot_row, busy = halve((flat, clock, y), slot_row, busy)
-                    size = len(slot_row)
-                    halvings[w] += 1
-                segment_fn, report_fn = programs_for(size, (flat, clock, y))
+            running, size = int((slot_row >= 0).sum()), len(slot_row)
+            half = len(slot_row) // 2
+            while not rows and 0 < running <= half and half >= MIN_SLOTS:  # the tail
+                (flat, clock, y), slot_row, busy = halve((flat, clock, y), slot_row, busy)
+                half = len(slot_row) // 2
+                halvings[w] += 1
+            if len(slot_row) < size:
+                segment_fn, report_fn = programs_for(len(slot_row), (flat, clock, y))
 
     def guarded(w, first, state):
         try:
@@ -316,10 +318,10 @@ def run_queue(
         if errors:
             raise errors[0]
     # the smaller programs' compilation (the threads wait for it) is compile time, not run time
-    run_s = time.perf_counter() - tick - sum(compile_s[1:])
+    late = sum(compiled[1:])
     return dict(
         slots=b, workers=workers, segments=sum(segments), compactions=sum(halvings),
-        compile_s=sum(compile_s), run_s=run_s,
+        compile_s=compile_s + late, run_s=time.perf_counter() - tick - late,
     )  # fmt: skip
 
 

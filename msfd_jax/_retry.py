@@ -1,14 +1,14 @@
 """Automatic recovery of a sweep's collisions (issue 12 items 1, 3): a smaller step, bounded.
 
-A collision stopped by a guard for a reason a smaller step can fix (`_outputs.step_is_cause`:
+A collision stopped by a guard for a reason a smaller step can fix (`_attempts.step_is_cause`:
 non-finite or energy balance broken with dt above 0.95 x the stability limit) is solved again
-with the step halved (`_outputs.smaller_step`), at most `_outputs.MAX_RETRIES` times, as
+with the step halved (`_attempts.smaller_step`), at most `_attempts.MAX_RETRIES` times, as
 `run` does for one collision; so is a collision that reports success with its energy balance
-open by more than `_outputs.BALANCE_RETRY_ABOVE` (2e-4) K0, at most
-`_outputs.BALANCE_RETRIES` halvings (`_outputs.needs_retry`). Rows failing for another
+open by more than `_attempts.BALANCE_RETRY_ABOVE` (2e-4) K0, at most
+`_attempts.BALANCE_RETRIES` halvings (`_attempts.needs_retry`). Rows failing for another
 reason (a crushed ring bar without collapse contacts, ...) are not retried. The attempt
 reported is the last one, or an earlier success that closed its balance better
-(`_outputs.keep_earlier`; its message then ends with `RETRY_NOTE`). Each row gets `retries`
+(`_attempts.keep_earlier`; its message then ends with `RETRY_NOTE`). Each row gets `retries`
 and `safety` (= dt / dt_crit) of the run reported; a retried row's message names the step
 used and the first run's failure or open balance.
 """
@@ -19,7 +19,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ._outputs import RETRY_NOTE, keep_earlier, needs_retry, smaller_step
+from ._attempts import RETRY_NOTE, keep_earlier, needs_retry, smaller_step
 
 RETRY_OUTPUTS = ("retries", "safety")
 

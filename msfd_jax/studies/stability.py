@@ -32,7 +32,8 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from .._outputs import MAX_RETRIES, diagnose, smaller_step, step_is_cause
+from .._attempts import MAX_RETRIES, smaller_step, step_is_cause
+from .._outputs import diagnose
 from .._params import CollisionParams, Mesh
 from .._results import RESULTS
 from .._scene import Scene, ring_on_beam
