@@ -10,10 +10,9 @@ scene shares `_BASE_SETTINGS` (with a fixed `max_steps`, which would otherwise b
 t_max / dt and differ between stiff and soft scenes); the long run (``stop_when_settled``
 False) and the paper-mesh bracket scenes are the only extra programs.
 
-float32: the package turns float64 on at import (``jax_enable_x64``), which also overrides a
-``JAX_ENABLE_X64=0`` set before the import. The only way to get single precision is to turn
-x64 off *after* importing; the ``float32`` scene does that in a fresh process (the flag is
-global) and reports what happens.
+float32: the package turns float64 on at import (``jax_enable_x64``), also over a
+``JAX_ENABLE_X64=0`` set before it; single precision needs x64 turned off *after* importing,
+which the ``float32`` scene does in a fresh process (the flag is global), reporting the outcome.
 """
 
 from __future__ import annotations
