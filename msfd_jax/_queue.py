@@ -34,6 +34,11 @@ from ._simulate import Settings, Solution
 
 DEFAULT_SLOTS = 32  # the fastest of 16, 32, 64 per collision-step (benchmarks/slot_cost.py)
 MIN_SLOTS = 16
+# A tail of at most TAIL_SLOTS running collisions moves to that many slots: below the vector
+# width XLA:CPU runs scalar code whose cost grows with the slots (benchmarks/slot_cost.py: a
+# substep of 1, 2, 4, 8, 16 slots costs 7.5, 13, 30, 58, 55 us on the paper mesh), and a
+# collision's arithmetic is the same bit for bit (tests/test_sweep.py).
+TAIL_SLOTS = 4
 DEFAULT_SEGMENT = 64  # diffrax steps (x substeps Verlet steps) between refills
 
 
@@ -59,10 +64,17 @@ def _dt(dt_crit, settings: Settings):
 
 
 @eqx.filter_jit
-def _start(params, dt_crit, mesh, smoothing, settings, max_steps):
+def _start(params, dt_crit, mesh, smoothing, settings, max_steps, step_factor=None):
+    """The slots' scenes, clocks and initial states. `step_factor` (B,), when given, scales
+    each collision's step (0.5 ** attempt for a retry: exact, so a collision solved again in
+    the queue takes the steps it would take alone with the step halved); `max_steps` is a
+    number or one per collision."""
     flat, cap = _scenes(params, mesh, smoothing)
     cap = cap if settings.t_max is None else None
-    clock = make_clock(flat, _dt(dt_crit, settings), settings, max_steps, cap)
+    dt = _dt(dt_crit, settings)
+    if step_factor is not None:
+        dt = dt * step_factor
+    clock = make_clock(flat, dt, settings, max_steps, cap)
     return flat, clock, initial_state(flat)
 
 
@@ -73,9 +85,9 @@ def _segment(flat, clock, y, settings, segment: int):
 
 
 @eqx.filter_jit
-def _refill(flat, clock, y, take, params, dt_crit, mesh, smoothing, settings, max_steps):
+def _refill(flat, clock, y, take, params, dt_crit, mesh, smoothing, settings, max_steps, factor):
     """Slots with `take` (B,) true get the new collisions `params` (B rows; others unused)."""
-    new = _start(params, dt_crit, mesh, smoothing, settings, max_steps)
+    new = _start(params, dt_crit, mesh, smoothing, settings, max_steps, factor)
 
     def merge(old, fresh):
         mask = jnp.reshape(take, (1,) * (old.ndim - 1) + take.shape)
@@ -148,105 +160,120 @@ def run_queue(
     mesh: Mesh,
     settings: Settings,
     smoothing,
-    max_steps: int,
+    max_steps: int | tuple[int, ...],
     *,
     slots: int = DEFAULT_SLOTS,
     segment: int = DEFAULT_SEGMENT,
     workers: int = 1,
-    on_done: Callable[[np.ndarray, Solution, np.ndarray], None],
+    on_done: Callable[..., np.ndarray | None],
 ) -> dict:
     """Run every collision of `params` (columns of CollisionParams fields) through B slots.
+
+    Retries join the queue: `on_done(rows, solution, wall, attempts)` may return a mask of
+    the rows to solve again, and each goes back to the front of the queue with its step
+    halved (attempt a runs at 0.5 ** a times the step, with `max_steps[a]` diffrax steps
+    allowed when `max_steps` is a tuple, one bound per attempt). A retry so runs in a free
+    slot beside the rest of the sweep, not in a pass of its own after it.
 
     `workers` threads each run their own B slots, all taking collisions from one queue
     (XLA releases the GIL while a compiled program runs, so W threads use W cores; one
     compiled program serves them all). `on_done(rows, solution, wall)` receives each group
     of collisions that stopped in the same segment of one worker: their positions in
-    `params`, a batch-first `Solution` of them (no histories) and each one's share of the
-    run time (compile time excluded); calls are serialised. Returns the slot count, the
-    worker count, the number of segments and of compactions (below), the compile and run
-    times (run time: wall time of the whole queue, compile excluded).
+    `params`, a batch-first `Solution` of them (no histories), each one's share of the
+    run time (compile time excluded) and its attempt; calls are serialised. Returns the
+    slot count, the worker count, the number of segments and of compactions (below), the
+    compile and run times (run time: wall time of the whole queue, compile excluded).
 
     The tail: once the queue is empty and at most half of a worker's slots still run, their
-    collisions move into a program of half as many slots (down to `MIN_SLOTS`; compiled when
-    first needed, its compilation counted as compile time): the tail of a sweep no longer
-    pays for stopped slots. A collision's result does not depend on its slot or the slot
-    count (tests/test_sweep.py).
+    collisions move into a program of fewer slots (the next power of two, down to
+    `TAIL_SLOTS`; compiled when first needed, its compilation counted as compile time): the
+    tail of a sweep no longer pays for stopped slots. A collision's result does not depend
+    on its slot or the slot count (tests/test_sweep.py).
     """
     n = len(dt_critical)
     workers = max(1, min(int(workers), -(-n // MIN_SLOTS)))  # >= MIN_SLOTS collisions each
     b = _slot_count(-(-n // workers), slots)
     smoothing = with_flags(smoothing)
-    queue = collections.deque(range(n))
+    bounds = max_steps if isinstance(max_steps, tuple) else (max_steps,)
+    queue = collections.deque((row, 0) for row in range(n))  # (row, attempt)
     names = list(params)
     lock = threading.Lock()
 
-    def batch_of(rows):
-        rows = np.asarray(rows)
-        padded = np.concatenate([rows, np.full(b - len(rows), rows[0])]) if len(rows) else None
-        p = CollisionParams(**{k: jnp.asarray(params[k][padded]) for k in names})
-        return p, jnp.asarray(dt_critical[padded])
+    def batch_of(rows, attempts, size=b):
+        rows, attempts = np.asarray(rows), np.asarray(attempts)
+        pad = size - len(rows)
+        rows = np.concatenate([rows, np.full(pad, rows[0])])
+        attempts = np.concatenate([attempts, np.zeros(pad, np.int64)])
+        p = CollisionParams(**{k: jnp.asarray(params[k][rows]) for k in names})
+        steps = np.asarray(bounds, np.float64)[np.minimum(attempts, len(bounds) - 1)]
+        return p, jnp.asarray(dt_critical[rows]), jnp.asarray(steps), jnp.asarray(0.5**attempts)
 
     def take(count):
         with lock:
-            return [queue.popleft() for _ in range(min(count, len(queue)))]
+            got = [queue.popleft() for _ in range(min(count, len(queue)))]
+        return [r for r, _ in got], [a for _, a in got]
 
     compiled: list[float] = []  # seconds of each program size's compilation
     programs: dict[int, tuple] = {}
     compiling = threading.Lock()
 
     def programs_for(size, state):
-        """The segment and report programs for `size` slots, compiled ahead of time (once; a
-        thread that needs a size another is compiling waits for it)."""
+        """The segment, report and refill programs for `size` slots, compiled ahead of time
+        (once; a thread that needs a size another is compiling waits for it)."""
         with compiling:
             if size not in programs:
                 tick = time.perf_counter()
                 flat, clock, y = state
+                zeros = np.zeros(size, np.int64)
+                p, d, steps, factor = batch_of(zeros, zeros, size)
                 programs[size] = (
                     _segment.lower(flat, clock, y, settings, segment).compile(),
                     _report.lower(flat, clock, y).compile(),
-                )
+                    _refill.lower(
+                        flat, clock, y, jnp.zeros(size, bool), p, d, mesh, smoothing, settings,
+                        steps, factor,
+                    ).compile(),
+                )  # fmt: skip
                 compiled.append(time.perf_counter() - tick)
             return programs[size]
 
     tick = time.perf_counter()
     starts = []
     for _ in range(workers):
-        first = take(b)
+        first, attempts = take(b)
         if first:  # (64 collisions, 3 workers of 32 slots: the third has none)
-            p, d = batch_of(first)
-            starts.append((first, _start(p, d, mesh, smoothing, settings, max_steps)))
+            p, d, steps, factor = batch_of(first, attempts)
+            state = _start(p, d, mesh, smoothing, settings, steps, factor)
+            starts.append((first, state))
     workers = len(starts)
     flat, clock, y = starts[0][1]
     # compile the programs ahead of time (once, before the threads start), so that their
     # compilation is timed apart from the run
     programs_for(b, (flat, clock, y))
-    refill_fn = _refill.lower(
-        flat, clock, y, jnp.zeros(b, bool), *batch_of(np.zeros(b, np.int64)),
-        mesh, smoothing, settings, max_steps,
-    ).compile()  # fmt: skip
     compile_s = time.perf_counter() - tick
     segments, halvings = [0] * workers, [0] * workers
     errors: list[BaseException] = []
 
-    def halve(state, slot_row, busy):
-        """The running slots (at most half) moved into a batch of half the size."""
-        size = len(slot_row) // 2
+    def shrink(state, slot_row, busy, slot_attempt, size):
+        """The running slots moved into a batch of `size` slots."""
         keep = np.flatnonzero(slot_row >= 0)
         idx = np.concatenate([keep, np.full(size - len(keep), keep[0])])
         flat, clock, y = jax.tree_util.tree_map(lambda a: a[..., idx], state)
         pad = np.arange(size) >= len(keep)
         y = eqx.tree_at(lambda s: s.done, y, jnp.where(jnp.asarray(pad), 1.0, y.done))
-        return (flat, clock, y), np.where(pad, -1, slot_row[idx]), np.where(pad, 0.0, busy[idx])
+        rows = np.where(pad, -1, slot_row[idx])
+        return (flat, clock, y), rows, np.where(pad, 0.0, busy[idx]), slot_attempt[idx]
 
     def drain(w, first, state):
         flat, clock, y = state
         slot_row = np.full(b, -1)
         slot_row[: len(first)] = first
+        slot_attempt = np.zeros(b, np.int64)  # 0 at the start: retries come from refills
         if len(first) < b:  # idle slots (fewer collisions than slots): stopped from the start
             idle = jnp.asarray(slot_row < 0)
             y = eqx.tree_at(lambda s: s.done, y, jnp.where(idle, 1.0, y.done))
         busy = np.zeros(b)  # run time attributed to each slot's current collision
-        segment_fn, report_fn = programs[b]
+        segment_fn, report_fn, refill_fn = programs[b]
         while (slot_row >= 0).any() and not errors:
             tick = time.perf_counter()
             y = segment_fn(flat, clock, y, settings, segment)
@@ -265,31 +292,40 @@ def run_queue(
             dt = np.asarray(clock.dt0)[idx] / settings.substeps
             k0 = np.asarray(clock.k0)[idx]
             solution = _solution(flat, *pick, dt, dt_critical[slot_row[idx]], k0, settings.substeps)
+            rows, attempts = slot_row[idx], slot_attempt[idx]
             with lock:
-                on_done(slot_row[idx], solution, busy[idx].copy())
+                again = on_done(rows, solution, busy[idx].copy(), attempts)
+                if again is not None and np.any(again):  # retries first: the longest runs
+                    again = np.asarray(again, bool)
+                    retried = zip(rows[again].tolist(), (attempts[again] + 1).tolist(), strict=True)
+                    queue.extendleft(list(retried)[::-1])
             busy[idx] = 0.0
             slot_row[idx] = -1
-            rows = take(len(idx))
+            rows, attempts = take(len(idx))
             if rows:
                 fill = idx[: len(rows)]
-                take_mask = np.zeros(b, bool)
+                take_mask = np.zeros(len(slot_row), bool)
                 take_mask[fill] = True
-                new_rows = np.zeros(b, np.int64)
+                new_rows = np.zeros(len(slot_row), np.int64)
                 new_rows[fill] = rows
-                p, d = batch_of(new_rows)
+                new_attempts = np.zeros(len(slot_row), np.int64)
+                new_attempts[fill] = attempts
+                p, d, steps, factor = batch_of(new_rows, new_attempts, len(slot_row))
                 flat, clock, y = refill_fn(
                     flat, clock, y, jnp.asarray(take_mask), p, d, mesh, smoothing, settings,
-                    max_steps,
+                    steps, factor,
                 )  # fmt: skip
                 slot_row[fill] = rows
+                slot_attempt[fill] = attempts
             running, size = int((slot_row >= 0).sum()), len(slot_row)
-            half = len(slot_row) // 2
-            while not rows and 0 < running <= half and half >= MIN_SLOTS:  # the tail
-                (flat, clock, y), slot_row, busy = halve((flat, clock, y), slot_row, busy)
-                half = len(slot_row) // 2
+            smaller = _tail_size(running, size)
+            if not rows and smaller < size:  # the tail: the queue is empty
+                state = (flat, clock, y)
+                (flat, clock, y), slot_row, busy, slot_attempt = shrink(
+                    state, slot_row, busy, slot_attempt, smaller
+                )
                 halvings[w] += 1
-            if len(slot_row) < size:
-                segment_fn, report_fn = programs_for(len(slot_row), (flat, clock, y))
+                segment_fn, report_fn, refill_fn = programs_for(smaller, (flat, clock, y))
 
     def guarded(w, first, state):
         try:
@@ -323,6 +359,19 @@ def run_queue(
         slots=b, workers=workers, segments=sum(segments), compactions=sum(halvings),
         compile_s=compile_s + late, run_s=time.perf_counter() - tick - late,
     )  # fmt: skip
+
+
+def _tail_size(running: int, size: int) -> int:
+    """The slots for `running` collisions of a tail now on `size` slots: halved while at most
+    half run, down to `MIN_SLOTS`; then, with at most `TAIL_SLOTS` running, the smallest power
+    of two that holds them (scalar code on XLA:CPU, whose cost grows with the slots)."""
+    if running == 0:
+        return size
+    while size // 2 >= MIN_SLOTS and running <= size // 2:
+        size //= 2
+    if running <= TAIL_SLOTS:
+        size = min(size, 1 << (running - 1).bit_length())
+    return size
 
 
 def _slot_count(n: int, slots: int) -> int:

@@ -24,10 +24,10 @@ from ._attempts import RETRY_NOTE, keep_earlier, needs_retry, smaller_step
 RETRY_OUTPUTS = ("retries", "safety")
 
 
-def _counted(part: dict, attempt: int) -> dict:
+def _counted(part: dict, attempt) -> dict:
     n = len(part["result"])
     out = dict(part)
-    out["retries"] = np.full(n, attempt, np.int64)
+    out["retries"] = np.broadcast_to(np.asarray(attempt, np.int64), (n,)).copy()
     out["safety"] = np.asarray(part["dt"], np.float64) / np.asarray(part["dt_critical"])
     return out
 
@@ -39,89 +39,121 @@ def with_retry_columns(finished: dict) -> dict:
     return _counted(finished, 0)
 
 
-def _prefixed(part: dict, first: np.ndarray) -> dict:
-    """Messages of retried rows: the step used and the failure recovered from."""
-    out = dict(part)
-    out["message"] = np.asarray(
-        [
-            f"retried with dt = {dt:.3g} ({s:.3g} x the stability limit, {r} retries) after: "
-            f"{f}; then {m}"
-            for dt, s, r, f, m in zip(
-                part["dt"], part["safety"], part["retries"], first, part["message"], strict=True
-            )
-        ],
-        dtype=str,
+def _prefixed(message: str, row: dict, first: str) -> str:
+    """A retried row's message: the step used and the failure recovered from."""
+    return (
+        f"retried with dt = {row['dt']:.3g} ({row['safety']:.3g} x the stability limit, "
+        f"{row['retries']} retries) after: {first}; then {message}"
     )
-    return out
 
 
-def _chosen(current: dict, new: dict, first: np.ndarray | None) -> dict:
-    """Per row, the later attempt `new` or, where `keep_earlier`, the `current` one (its
-    message noted); `new` rows are prefixed with the first run's message when `first` is
-    given (the top level)."""
-    keep = keep_earlier(
-        current["result"],
-        current["energy_balance_error"],
-        new["result"],
-        new["energy_balance_error"],
-    )
-    if first is not None:
-        new = _prefixed(new, first)
-    out = {}
-    for k, v in new.items():
-        cur, v = np.asarray(current[k]), np.asarray(v)
-        if k == "message":
-            cur = np.asarray([f"{m}{RETRY_NOTE}" for m in cur.tolist()], dtype=str)
-        merged = np.where(keep, cur.astype(object), v.astype(object)).tolist()
-        out[k] = np.asarray(merged, dtype=str if v.dtype.kind == "U" else v.dtype)
-    return out
+class Attempts:
+    """Every row's attempts: which rows are solved again, and each row handed on once.
+
+    `take(rows, part, attempts)` receives the outputs of one attempt of some rows (attempt
+    0 is the first run, attempt a the run with the step halved a times) and returns the mask
+    of those to solve again (`needs_retry`). A row that is not is handed to `on_rows(rows,
+    part)` with the attempt reported: the success with the smallest |error| (the earliest on
+    a tie), or the last attempt when none succeeded (`keep_earlier`, attempt by attempt). Its
+    message names the step used and the first run's failure when a later attempt is
+    reported, and ends with `RETRY_NOTE` when a later attempt did no better. Rows may arrive
+    in any grouping and order (the sweep's queue hands in a row's retry as soon as its
+    previous attempt stops); `wall_time_s`, when present, adds up over a row's attempts.
+    """
+
+    def __init__(self, on_rows: Callable[[np.ndarray, dict], None]):
+        self.on_rows = on_rows
+        self.best: dict[int, dict] = {}  # row -> the attempt reported so far (one row)
+        self.first: dict[int, str] = {}  # row -> the first run's message
+        self.wall: dict[int, float] = {}
+        self.steps = 0  # Verlet steps of every attempt taken
+
+    def take(self, rows, part: dict, attempts) -> np.ndarray:
+        rows = np.asarray(rows)
+        attempts = np.broadcast_to(np.asarray(attempts, np.int64), rows.shape)
+        part = _counted(part, attempts)
+        self.steps += int(np.sum(part.get("steps", 0)))
+        retry = needs_retry(
+            part["result"], part["dt"], part["dt_critical"], part["energy_balance_error"], attempts
+        )
+        finished = []
+        for i, r in enumerate(rows.tolist()):
+            this = {k: np.asarray(v)[i] for k, v in part.items()}
+            if attempts[i] == 0:
+                self.first[r] = str(this["message"])
+            best = self.best.get(r)
+            if best is None or not keep_earlier(
+                best["result"],
+                best["energy_balance_error"],
+                this["result"],
+                this["energy_balance_error"],
+            ):
+                best = this
+            self.best[r] = best
+            if "wall_time_s" in this:
+                self.wall[r] = self.wall.get(r, 0.0) + float(this["wall_time_s"])
+            if not retry[i]:
+                finished.append((r, self._reported(r, int(attempts[i]))))
+        if finished:
+            names = list(finished[0][1])
+            out = {k: np.asarray([f[1][k] for f in finished]) for k in names}
+            out["message"] = np.asarray([f[1]["message"] for f in finished], dtype=str)
+            self.on_rows(np.asarray([f[0] for f in finished], np.int64), out)
+        return retry
+
+    def _reported(self, row: int, last: int) -> dict:
+        best = dict(self.best.pop(row))
+        first = self.first.pop(row)
+        if row in self.wall:
+            best["wall_time_s"] = np.float64(self.wall.pop(row))
+        message = str(best["message"])
+        chosen = int(best["retries"])
+        if chosen < last:
+            message += RETRY_NOTE
+        if chosen > 0:
+            message = _prefixed(message, best, first)
+        best["message"] = message
+        return best
 
 
 def solve_with_retries(
-    solve: Callable, columns: dict, mesh, settings, *, on_rows=None, attempt: int = 0, **kw
+    solve: Callable, columns: dict, mesh, settings, *, on_rows=None, **kw
 ) -> dict:
     """`solve(columns, mesh, settings, on_rows=..., **kw)` (the sweep's unit of work) with
-    the rows `needs_retry` names solved again at a smaller step; output columns gain
-    `RETRY_OUTPUTS`. `on_rows` sees each row once, with its final outputs."""
-    again, first = [], []
+    the rows `needs_retry` names solved again at a smaller step, round after round
+    (`Attempts`); output columns gain `RETRY_OUTPUTS`. `on_rows` sees each row once, with
+    its final outputs. (The queue engine does not need rounds: it hands a row's retry back
+    to its own queue, `_sweep._solve_collisions`.)"""
+    n = len(next(iter(columns.values())))
+    parts: list[tuple[np.ndarray, dict]] = []
 
-    def take(rows, part):
-        rows, part = np.asarray(rows), _counted(part, attempt)
-        retry = needs_retry(
-            part["result"], part["dt"], part["dt_critical"], part["energy_balance_error"], attempt
-        )
-        again.append(rows[retry])
-        first.append(np.asarray(part["message"])[retry])
-        if on_rows is not None and (~retry).any():
-            on_rows(rows[~retry], {k: np.asarray(v)[~retry] for k, v in part.items()})
-
-    out = _counted(solve(columns, mesh, settings, on_rows=take, **kw), attempt)
-    rows = np.concatenate(again) if again else np.zeros(0, int)
-    if not len(rows):
-        return out
-    before = dict(zip(rows.tolist(), np.concatenate(first).tolist(), strict=True))
-
-    def firsts(these):
-        return np.asarray([before[r] for r in these.tolist()]) if attempt == 0 else None
-
-    def current(these):
-        return {k: np.asarray(out[k])[these] for k in out}
-
-    def relay(sub_rows, part):
-        sub_rows = rows[np.asarray(sub_rows)]
+    def emit(rows, part):
+        parts.append((rows, part))
         if on_rows is not None:
-            on_rows(sub_rows, _chosen(current(sub_rows), part, firsts(sub_rows)))
+            on_rows(rows, part)
 
-    sub = {k: np.asarray(v)[rows] for k, v in columns.items()}
-    redone = solve_with_retries(
-        solve, sub, mesh, smaller_step(settings), on_rows=relay, attempt=attempt + 1, **kw
-    )
-    redone = _chosen(current(rows), redone, firsts(rows))
-    for k, v in redone.items():
-        merged = np.asarray(out[k]).astype(object)
-        merged[rows] = np.asarray(v).astype(object)
-        out[k] = np.asarray(
-            merged.tolist(),
-            dtype=np.asarray(out[k]).dtype.kind == "U" and str or np.asarray(out[k]).dtype,
-        )
-    return out
+    attempts = Attempts(emit)
+    rows, attempt = np.arange(n), 0
+    while len(rows):
+        again = []
+        sub = {k: np.asarray(v)[rows] for k, v in columns.items()}
+
+        def take(sub_rows, part, rows=rows, again=again, attempt=attempt):
+            these = rows[np.asarray(sub_rows)]
+            again.append(these[attempts.take(these, part, attempt)])
+
+        solve(sub, mesh, settings, on_rows=take, **kw)
+        rows = np.sort(np.concatenate(again)) if again else np.zeros(0, np.int64)
+        settings, attempt = smaller_step(settings), attempt + 1
+    return assemble(parts, n)
+
+
+def assemble(parts: list[tuple[np.ndarray, dict]], n: int, keys=None) -> dict:
+    """The columns `keys` (default: all of the first group's) in row order, from groups of
+    rows (rows, columns) in any order, each row once."""
+    rows = np.concatenate([np.asarray(r) for r, _ in parts]) if parts else np.zeros(0, int)
+    if len(rows) != n or len(np.unique(rows)) != n:
+        raise RuntimeError(f"a sweep of {n} collisions got {len(rows)} rows back")
+    order = np.argsort(rows, kind="stable")
+    keys = parts[0][1] if keys is None else keys
+    return {k: np.concatenate([np.asarray(p[k]) for _, p in parts])[order] for k in keys}

@@ -23,6 +23,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from . import _attempts
+from ._attempts import smaller_step
 from ._cap import T_MAX_CEILING
 from ._cluster import solve_on_cluster
 from ._outputs import FRACTION_KEYS, balance_warning, diagnose, fractions
@@ -31,7 +33,7 @@ from ._progress import SweepProgress as _SweepProgress
 from ._provenance import mesh_json
 from ._queue import DEFAULT_SLOTS, default_workers, run_queue
 from ._results import RESULTS
-from ._retry import RETRY_OUTPUTS, solve_with_retries, with_retry_columns
+from ._retry import RETRY_OUTPUTS, Attempts, assemble, solve_with_retries, with_retry_columns
 from ._scene import _ring_on_beam
 from ._shard import _critical_chunk, _run_chunk, _sharded_solver
 from ._simulate import Settings
@@ -276,16 +278,15 @@ def _numerics(mesh: Mesh, settings: Settings, contact: float, yield_: float) -> 
 
 def _assemble(parts, n: int) -> dict[str, np.ndarray]:
     """The output columns in the table's order, from groups of rows in any order."""
-    rows = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, int)
-    if len(rows) != n or len(np.unique(rows)) != n:
-        raise RuntimeError(f"a sweep of {n} collisions got {len(rows)} rows back")
-    order = np.argsort(rows, kind="stable")
-    return {k: np.concatenate([np.asarray(p[1][k]) for p in parts])[order] for k in OUTPUTS}
+    return assemble(parts, n, OUTPUTS)
 
 
 def solve_collisions(columns, mesh: Mesh = Mesh(), settings=SWEEP_SETTINGS, **kw):
-    """`_solve_collisions` with step failures solved again at a smaller step (`_retry`)."""
-    return solve_with_retries(_solve_collisions, columns, mesh, settings, **kw)
+    """`_solve_collisions` with the rows `_attempts.needs_retry` names solved again at a
+    smaller step (`_retry`): in the queue engine's own queue, or with `shard` round by round."""
+    if kw.get("shard"):
+        return solve_with_retries(_solve_collisions, columns, mesh, settings, **kw)
+    return _solve_collisions(columns, mesh, settings, **kw)
 
 
 def _solve_collisions(
@@ -330,9 +331,15 @@ def _solve_collisions(
     limits = [_run_chunk(_critical_chunk, columns, c, chunk_size, mesh, smoothing) for c in chunks]
     columns["_dt_critical"] = np.concatenate([d for d, _ in limits])
     caps = np.concatenate([c for _, c in limits])  # the derived caps (Settings.t_max None)
-    if settings.max_steps is None:
-        bound = step_bound(columns["_dt_critical"], settings, caps)
-        settings = dataclasses.replace(settings, max_steps=bound)
+    retries = max(_attempts.MAX_RETRIES, _attempts.BALANCE_RETRIES)
+    bounds = (settings.max_steps,) * (retries + 1)
+    if settings.max_steps is None:  # one per attempt (attempt a: the step halved a times)
+        bounds, smaller = [], settings
+        for _ in range(retries + 1):
+            bounds.append(step_bound(columns["_dt_critical"], smaller, caps))
+            smaller = smaller_step(smaller)
+        bounds = tuple(bounds)
+        settings = dataclasses.replace(settings, max_steps=bounds[0])
     note("collisions")
     if devices:  # the chunked, sharded path: each device runs its part of a chunk
         solve = _sharded_solver(devices)
@@ -344,19 +351,24 @@ def _solve_collisions(
             if on_rows is not None:
                 on_rows(np.asarray(c), parts[-1])
         return {k: np.concatenate([p[k] for p in parts]) for k in SOLVED_OUTPUTS}
-    # the batched core: `chunk_size` slots refilled from the queue as collisions stop
-    parts, order = [], []
+    # the batched core: `chunk_size` slots refilled from the queue as collisions stop, and
+    # a row to be solved again at a smaller step handed back to the queue (`_retry.Attempts`)
+    parts = []
     scene = _layout_scene(mesh)
 
-    def done(rows, solution, wall):
+    def emit(rows, part):
+        parts.append((rows, part))
+        if on_rows is not None:
+            on_rows(rows, part)
+
+    attempts = Attempts(emit)
+
+    def done(rows, solution, wall, attempt):
         outputs = fractions(solution, scene)
         outputs["energy_balance_error"] = solution.energy_balance_error
         part = _rows(outputs, solution, mesh, float(np.sum(wall)))
         part["wall_time_s"] = np.asarray(wall, np.float64)  # each one's share, no compile
-        parts.append(part)
-        order.append(np.asarray(rows))
-        if on_rows is not None:
-            on_rows(np.asarray(rows), part)
+        return attempts.take(rows, part, attempt)
 
     names = [f.name for f in dataclasses.fields(CollisionParams)]
     timing = run_queue(
@@ -365,15 +377,15 @@ def _solve_collisions(
         mesh,
         settings,
         smoothing,
-        settings.max_steps,
+        bounds,
         slots=chunk_size,
         workers=workers,
         on_done=done,
     )
+    timing["steps"] = attempts.steps  # Verlet steps of every attempt (retries included)
     LAST_TIMING.clear()
     LAST_TIMING.update(timing)
-    position = np.argsort(np.concatenate(order), kind="stable")
-    return {k: np.concatenate([p[k] for p in parts])[position] for k in SOLVED_OUTPUTS}
+    return assemble(parts, n)
 
 
 def _layout_scene(mesh: Mesh):

@@ -15,7 +15,8 @@ from conftest import COMPARE_SMOOTHING, SHORT, SMALL_MESH
 
 import msfd_jax as m
 from msfd_jax import _shard, _sweep
-from msfd_jax._sweep import INPUTS, OUTPUTS, SweepTable, collisions, sweep
+from msfd_jax._outputs import FRACTION_KEYS
+from msfd_jax._sweep import INPUTS, OUTPUTS, SWEEP_SETTINGS, SweepTable, collisions, sweep
 from msfd_jax.cli import main
 
 GRID = {"thickness_ratio": [1.0, 2.5], "axial_constraint": [0.0, 1.0]}
@@ -260,3 +261,37 @@ def test_an_error_in_a_worker_thread_reaches_the_caller():
     with pytest.raises(RuntimeError, match="disk full"):
         sweep(rows, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=2,
               on_rows=fail)  # fmt: skip
+
+
+def test_the_scalar_tail_gives_the_same_rows(one_worker, monkeypatch):
+    """The tail's last collisions move to 4, 2 and 1 slots (`_queue.TAIL_SLOTS`): their rows
+    equal those of a tail kept at 16 slots, every column (a collision's arithmetic does not
+    depend on the slot count)."""
+    from msfd_jax import _queue
+
+    assert _queue._tail_size(3, 16) == 4 and _queue._tail_size(1, 4) == 1
+    assert _queue._tail_size(5, 16) == 16 and _queue._tail_size(9, 64) == 16
+    monkeypatch.setattr(_queue, "TAIL_SLOTS", 0)  # the tail stays at MIN_SLOTS
+    wide = sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=1)
+    for key in OUTPUTS:
+        if key != "wall_time_s":
+            np.testing.assert_array_equal(np.asarray(wide[key]), np.asarray(one_worker[key]), key)
+
+
+def test_a_retry_runs_in_the_queue_as_it_would_alone(monkeypatch):
+    """A row rerun at half the step (issue 12) goes back into the running queue (no pass of
+    its own after the sweep) and gives exactly the row of a sweep at that step."""
+    from msfd_jax import _attempts
+
+    lean = dataclasses.replace(SWEEP_SETTINGS, max_steps=2**14)
+    rows = [{}, {"thickness_ratio": 1.5}, {"thickness_ratio": 3.0}]
+    # on the coarse mesh these close their balance only to ~2e-4 K0 at safety 0.7: each is
+    # rerun once at 0.35 (test_reliability.py)
+    table = sweep(rows, SMALL_MESH, lean, workers=1)
+    assert list(table["retries"]) == [1, 1, 1]
+    assert _sweep.LAST_TIMING["steps"] > int(np.sum(table["steps"]))  # the first attempts too
+    monkeypatch.setattr(_attempts, "BALANCE_RETRIES", 0)
+    alone = sweep(rows, SMALL_MESH, dataclasses.replace(lean, safety=0.35), workers=1)
+    assert list(alone["retries"]) == [0, 0, 0]
+    for key in ("steps", "t_end", "dt", "energy_balance_error", *FRACTION_KEYS):
+        np.testing.assert_array_equal(table[key], alone[key], err_msg=key)
