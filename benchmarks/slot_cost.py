@@ -1,10 +1,10 @@
 """Cost of one Verlet substep of the batched core against the slot count (issue 11).
 
-Paper mesh, sharp laws (as sweeps compile them), B = 8, 16, 32, 64 collisions (h_b/h_r
+Paper mesh, sharp laws (as sweeps compile them), B = 1, 2, 4, 8, 16, 32, 64 collisions (h_b/h_r
 0.5-4, held, g = 10, v0 = 0.82), one core: each B's compiled ``fori_loop`` of `--steps`
 substeps is timed in turn, round after round (interleaved, so a noisy neighbour weighs on all
-alike), and the best round is kept. This is what `_queue.MIN_SLOTS` and
-`_queue.DEFAULT_SLOTS` are chosen from.
+alike), and the best round is kept. This is what `_queue.MIN_SLOTS`, `_queue.TAIL_SLOTS`
+and `_queue.DEFAULT_SLOTS` are chosen from.
 
     python benchmarks/slot_cost.py            # writes benchmarks/results/slot_cost.md
 
@@ -27,7 +27,7 @@ RESULTS = Path(__file__).resolve().parent / "results"
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--slots", nargs="+", type=int, default=[8, 16, 32, 64])
+    parser.add_argument("--slots", nargs="+", type=int, default=[1, 2, 4, 8, 16, 32, 64])
     parser.add_argument("--steps", type=int, default=500)
     parser.add_argument("--rounds", type=int, default=9)
     args = parser.parse_args()

@@ -7,10 +7,12 @@ per core by default), ``--workers 1`` (one core), and a LocalCluster of two work
 (``--cluster local:2``). Goal: <= 30 s wall for plain ``msfd sweep``.
 
     python benchmarks/sweep_1024.py            # writes benchmarks/results/sweep_1024.md
+    python benchmarks/sweep_1024.py --only plain   # the goal's configuration alone
 """
 
 from __future__ import annotations
 
+import argparse
 import datetime
 import subprocess
 import sys
@@ -28,6 +30,7 @@ CONFIGS = {
     "--workers 1 (one core)": ["--workers", "1"],
     "--cluster local:2": ["--cluster", "local:2"],
 }
+KEYS = dict(zip(("plain", "workers1", "cluster"), CONFIGS, strict=True))
 
 
 def run(extra: list[str], cache: str) -> tuple[float, str]:
@@ -41,9 +44,13 @@ def run(extra: list[str], cache: str) -> tuple[float, str]:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", nargs="+", choices=list(KEYS), default=list(KEYS))
+    args = parser.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as cache:
-        for name, extra in CONFIGS.items():
+        for key in args.only:
+            name, extra = KEYS[key], CONFIGS[KEYS[key]]
             cold, _ = run(extra, cache)
             warm, summary = run(extra, cache)
             rows.append((name, cold, warm, summary))
@@ -52,7 +59,7 @@ def main() -> None:
     lines = [
         "# 1024 paper-mesh collisions with plain `msfd sweep` (issue 11, goal 2: <= 30 s)",
         "",
-        f"`python benchmarks/sweep_1024.py` · {date} · 2 cores",
+        f"`python benchmarks/sweep_1024.py {' '.join(sys.argv[1:])}` · {date} · 2 cores",
         "",
         f"Grid: `msfd sweep {' '.join(GRID)}`",
         "",

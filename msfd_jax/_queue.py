@@ -36,8 +36,8 @@ DEFAULT_SLOTS = 32  # the fastest of 16, 32, 64 per collision-step (benchmarks/s
 MIN_SLOTS = 16
 # A tail of at most TAIL_SLOTS running collisions moves to that many slots: below the vector
 # width XLA:CPU runs scalar code whose cost grows with the slots (benchmarks/slot_cost.py: a
-# substep of 1, 2, 4, 8, 16 slots costs 7.5, 13, 30, 58, 55 us on the paper mesh), and a
-# collision's arithmetic is the same bit for bit (tests/test_sweep.py).
+# substep of 1, 2, 4, 8, 16 slots costs 6.7, 12.9, 25.0, 43.8, 44.4 us on the paper mesh),
+# and a collision's arithmetic is the same bit for bit (tests/test_sweep.py).
 TAIL_SLOTS = 4
 DEFAULT_SEGMENT = 64  # diffrax steps (x substeps Verlet steps) between refills
 
