@@ -77,3 +77,12 @@ def time_cap(scene: Scene):
         return jnp.asarray(T_MAX_FLOOR)
     cap = CAP_FACTOR * stopping_time(scene) + CAP_MARGIN
     return jnp.clip(cap, T_MAX_FLOOR, T_MAX_CEILING)
+
+
+def expected_duration(scene: Scene):
+    """A rough guess of how long `scene` runs: the derived cap without its floor (the floor
+    for a scene without ring and beam). It orders a sweep's queue longest first, so that the
+    longest collisions do not start last and run alone in the tail; jit/vmap-compatible."""
+    if scene.chain_index("ring") is None or scene.chain_index("beam") is None:
+        return jnp.asarray(T_MAX_FLOOR)
+    return jnp.minimum(CAP_FACTOR * stopping_time(scene) + CAP_MARGIN, T_MAX_CEILING)

@@ -166,14 +166,16 @@ def run_queue(
     segment: int = DEFAULT_SEGMENT,
     workers: int = 1,
     on_done: Callable[..., np.ndarray | None],
+    order: np.ndarray | None = None,
 ) -> dict:
     """Run every collision of `params` (columns of CollisionParams fields) through B slots.
 
-    Retries join the queue: `on_done(rows, solution, wall, attempts)` may return a mask of
-    the rows to solve again, and each goes back to the front of the queue with its step
-    halved (attempt a runs at 0.5 ** a times the step, with `max_steps[a]` diffrax steps
-    allowed when `max_steps` is a tuple, one bound per attempt). A retry so runs in a free
-    slot beside the rest of the sweep, not in a pass of its own after it.
+    The queue starts in `order` (row positions; default: as given): a sweep puts its longest
+    collisions first. Retries join the queue: `on_done(rows, solution, wall, attempts)` may
+    return a mask of the rows to solve again, and each goes back to the front of the queue
+    with its step halved (attempt a runs at 0.5 ** a times the step, with `max_steps[a]`
+    diffrax steps allowed when `max_steps` is a tuple, one bound per attempt). A retry so
+    runs in a free slot beside the rest of the sweep, not in a pass of its own after it.
 
     `workers` threads each run their own B slots, all taking collisions from one queue
     (XLA releases the GIL while a compiled program runs, so W threads use W cores; one
@@ -195,7 +197,8 @@ def run_queue(
     b = _slot_count(-(-n // workers), slots)
     smoothing = with_flags(smoothing)
     bounds = max_steps if isinstance(max_steps, tuple) else (max_steps,)
-    queue = collections.deque((row, 0) for row in range(n))  # (row, attempt)
+    order = range(n) if order is None else np.asarray(order).tolist()
+    queue = collections.deque((row, 0) for row in order)  # (row, attempt)
     names = list(params)
     lock = threading.Lock()
 

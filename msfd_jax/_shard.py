@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._cap import time_cap
+from ._cap import expected_duration, time_cap
 from ._dynamics import critical_step
 from ._outputs import fractions
 from ._params import CollisionParams, Mesh
@@ -41,7 +41,7 @@ def _run_chunk(function, columns, rows: range, chunk_size: int, *args):
 def _critical_chunk(params: CollisionParams, mesh: Mesh, smoothing):
     def one(p):
         scene = ring_on_beam(p, mesh, contact_smoothing=smoothing[0])
-        return critical_step(scene), time_cap(scene)
+        return critical_step(scene), time_cap(scene), expected_duration(scene)
 
     return jax.vmap(one)(params)
 

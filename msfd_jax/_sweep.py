@@ -329,8 +329,14 @@ def _solve_collisions(
     # and the sharded solver then needs no eigen-solve inside its devices' programs
     note("stability limits")
     limits = [_run_chunk(_critical_chunk, columns, c, chunk_size, mesh, smoothing) for c in chunks]
-    columns["_dt_critical"] = np.concatenate([d for d, _ in limits])
-    caps = np.concatenate([c for _, c in limits])  # the derived caps (Settings.t_max None)
+    columns["_dt_critical"] = np.concatenate([d for d, _, _ in limits])
+    caps = np.concatenate([c for _, c, _ in limits])  # the derived caps (Settings.t_max None)
+    # the queue's order: the longest runs first (a guess from the collapse loads, `_cap`), so
+    # that the tail is short; a row's result does not depend on when it runs
+    t_end = np.concatenate([e for _, _, e in limits])
+    t_end = np.minimum(t_end, caps if settings.t_max is None else float(settings.t_max))
+    dt = columns["_dt_critical"] if settings.dt is None else np.full(n, float(settings.dt))
+    order = np.argsort(-(t_end / dt), kind="stable")
     retries = max(_attempts.MAX_RETRIES, _attempts.BALANCE_RETRIES)
     bounds = (settings.max_steps,) * (retries + 1)
     if settings.max_steps is None:  # one per attempt (attempt a: the step halved a times)
@@ -381,6 +387,7 @@ def _solve_collisions(
         slots=chunk_size,
         workers=workers,
         on_done=done,
+        order=order,
     )
     timing["steps"] = attempts.steps  # Verlet steps of every attempt (retries included)
     LAST_TIMING.clear()
