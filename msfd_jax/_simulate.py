@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
-import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -36,6 +36,9 @@ from ._results import (  # noqa: F401  (the former constants, re-exported)
     TIME_LIMIT,
 )
 from ._scene import Scene
+
+if TYPE_CHECKING:  # diffrax is imported where a solve is traced (`_simulate`, `_core.solve`)
+    import diffrax
 
 _critical_step = eqx.filter_jit(critical_step)
 
@@ -218,6 +221,8 @@ def _simulate(
 ) -> Solution:
     # the batched core with a batch of one (issue 11): the diffrax clock is then the
     # collision's own physical time, so histories and shapes are saved at physical times
+    import diffrax  # at trace time: a stored program (`_export`) runs without diffrax
+
     flat = flatten(scene)
     dt, dt_crit = step_size(scene, settings, dt_critical)
     # t_max=None: this collision's derived cap, on its floor's grid (`make_clock`)
@@ -317,7 +322,8 @@ def prepare(scene: Scene, settings: Settings, adjoint=None, dt_critical=None) ->
     ``_simulate.lower(*prepare(...)).compile()`` compiles (or loads from the persistent
     cache) ahead of the run, so that `run` can time compilation and the run apart.
     """
-    adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
+    # adjoint None stays None: `_core.solve` takes diffrax's RecursiveCheckpointAdjoint, the
+    # same program, and a process that loads a stored program needs no diffrax for the key
     cap = resolve_cap(scene, settings).t_max  # t_max stays None: _simulate derives it again
     if not isinstance(cap, jax.core.Tracer):
         # shape times past the cap are dropped (a short run keeps the default times it reaches)
