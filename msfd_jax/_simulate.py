@@ -19,7 +19,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from . import _export
-from ._cap import time_cap
+from ._cap import concrete_time_cap, time_cap
 from ._core import chain_state, history_of, solve
 from ._dynamics import State, critical_step
 from ._engine import BatchState, make_clock
@@ -191,9 +191,10 @@ def resolve_cap(scene: Scene, settings: Settings) -> Settings:
     """
     if settings.t_max is not None:
         return settings
-    cap = jax.lax.stop_gradient(time_cap(scene))  # a cap, not a design output
-    if not isinstance(cap, jax.core.Tracer):
-        cap = float(cap)
+    if any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(scene)):
+        cap = jax.lax.stop_gradient(time_cap(scene))  # a cap, not a design output
+    else:  # mostly on the host: eager jax ops each load a small program
+        cap = concrete_time_cap(scene)
     return dataclasses.replace(settings, t_max=cap)
 
 
@@ -210,7 +211,11 @@ def max_steps_for(scene: Scene, settings: Settings) -> int:
     if any(isinstance(v, jax.core.Tracer) for v in values):
         raise ValueError("under jit/vmap give Settings(max_steps=...) explicitly")
     # on the host, as `step_size` would compute it: eager jax ops each load a program
-    dt = settings.dt if settings.dt is not None else np.asarray(values[0]) * settings.safety
+    dt = (
+        settings.dt
+        if settings.dt is not None
+        else np.asarray(values[0]) * np.asarray(settings.safety)
+    )
     n = float(np.max(np.asarray(settings.t_max) / (np.asarray(dt) * settings.substeps)))
     return 2 ** max(8, math.ceil(math.log2(1.02 * n + 16)))
 
