@@ -34,7 +34,9 @@ from __future__ import annotations
 
 import math
 
+import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ._scene import Scene
 
@@ -46,37 +48,62 @@ RING_COLLAPSE = 4.0 * (1.0 + math.sqrt(2.0))  # p_0 / m_pr of the half ring (App
 RING_STROKE = 1.0  # R: the quarter ring's height, the most it can be crushed
 
 
-def stopping_time(scene: Scene):
-    """t_stop of a ring-on-beam scene (see the module docstring); jit/vmap-compatible."""
+def stopping_time(scene: Scene, xp=jnp):
+    """t_stop of a ring-on-beam scene (see the module docstring); jit/vmap-compatible.
+
+    `xp` is the array module: jax.numpy (traced or eager), or numpy for a scene of host
+    arrays (`_simulate.resolve_cap`: one concrete cap without eager jax ops).
+    """
     ring = scene.chains[scene.chain_index("ring")]
     beam = scene.chains[scene.chain_index("beam")]
     v_ring = scene.initial_velocity[scene.chain_index("ring")]
-    mass = jnp.sum(ring.mass)  # g + the quarter ring
-    v0 = jnp.abs(jnp.sum(ring.mass * v_ring[:, 1])) / mass
+    mass = xp.sum(ring.mass)  # g + the quarter ring
+    v0 = xp.abs(xp.sum(ring.mass * v_ring[:, 1])) / mass
     p_ring = 0.5 * RING_COLLAPSE * ring.section.plastic_moment
-    v1 = jnp.sqrt(jnp.maximum(v0**2 - 2.0 * p_ring * RING_STROKE / mass, 0.0))
+    v1 = xp.sqrt(xp.maximum(v0**2 - 2.0 * p_ring * RING_STROKE / mass, 0.0))
     t_ring = mass * (v0 - v1) / p_ring
     span = beam.reference[-1, 0]
     p_bend = beam.section.plastic_moment / span
-    t_string = 0.5 * math.pi * jnp.sqrt(mass * span / beam.section.plastic_axial)
+    t_string = 0.5 * math.pi * xp.sqrt(mass * span / beam.section.plastic_axial)
     held = beam.free[-1, 0] < 0.5
 
     def t_beam(v):
         t_bend = mass * v / p_bend
-        return jnp.where(v > 0, jnp.where(held, jnp.minimum(t_bend, t_string), t_bend), 0.0)
+        return xp.where(v > 0, xp.where(held, xp.minimum(t_bend, t_string), t_bend), 0.0)
 
-    return jnp.maximum(t_ring + t_beam(v1), t_beam(v0))
+    return xp.maximum(t_ring + t_beam(v1), t_beam(v0))
 
 
-def time_cap(scene: Scene):
+def time_cap(scene: Scene, xp=jnp):
     """The default cap on tau for `scene` (``Settings(t_max=None)``); jit/vmap-compatible.
 
     A scene without both a ring and a beam (plate, cantilever, driven beam) gets the floor.
+    `xp` as in `stopping_time`.
     """
     if scene.chain_index("ring") is None or scene.chain_index("beam") is None:
-        return jnp.asarray(T_MAX_FLOOR)
-    cap = CAP_FACTOR * stopping_time(scene) + CAP_MARGIN
-    return jnp.clip(cap, T_MAX_FLOOR, T_MAX_CEILING)
+        return xp.asarray(T_MAX_FLOOR)
+    cap = CAP_FACTOR * stopping_time(scene, xp) + CAP_MARGIN
+    return xp.clip(cap, T_MAX_FLOOR, T_MAX_CEILING)
+
+
+def concrete_time_cap(scene: Scene) -> float:
+    """`time_cap` of a concrete scene as a float, the same value as eager jax ops give.
+
+    Each eager jax op of `time_cap` loads its own small program (26 of them: ~0.35 s of a new
+    process). numpy on the host gives the same cap wherever it is clipped to the floor or the
+    ceiling with room to spare (the showcase, and most designs); numpy's sums may differ from
+    XLA's in the last bits, so a cap in between is computed with jax as before.
+    """
+    host = jax.tree_util.tree_map(np.asarray, scene)
+    if scene.chain_index("ring") is not None and scene.chain_index("beam") is not None:
+        unclipped = CAP_FACTOR * float(stopping_time(host, np)) + CAP_MARGIN
+        if unclipped < T_MAX_FLOOR * (1.0 - 1e-9):
+            return T_MAX_FLOOR
+        if unclipped > T_MAX_CEILING * (1.0 + 1e-9):
+            return T_MAX_CEILING
+    else:
+        return T_MAX_FLOOR
+    return float(time_cap(scene))
 
 
 def expected_duration(scene: Scene):

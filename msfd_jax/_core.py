@@ -1,60 +1,36 @@
 """The batched core as a diffrax solver, and one batched solve (issue 11).
 
-`BatchedVerlet` is the project's diffrax solver: each diffrax step advances every collision of
-the batch by ``substeps`` Verlet steps on its own time grid and applies its stopping rule
-(`_engine.advance`). The same solver serves a single run (a batch of one, whose diffrax time
-is then the physical time, so histories are saved with ``SaveAt(ts=...)`` as before), a fixed
-batch, the sweep's segments between refills, and gradients (diffrax's adjoints).
+`_solver.BatchedVerlet` is the project's diffrax solver: each diffrax step advances every
+collision of the batch by ``substeps`` Verlet steps on its own time grid and applies its
+stopping rule (`_engine.advance`). The same solver serves a single run (a batch of one, whose
+diffrax time is then the physical time, so histories are saved with ``SaveAt(ts=...)`` as
+before), a fixed batch, the sweep's segments between refills, and gradients (diffrax's
+adjoints).
+
+diffrax is imported only when a solve is traced (`solve`), not with this module: a process
+that runs stored programs (`_export`, the CLI's warm start) never needs it, and importing it
+(with optimistix and lineax) costs ~0.5 s of CPU (benchmarks/results/startup.md).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import ClassVar
+from typing import TYPE_CHECKING
 
-import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 
 from ._dynamics import State
-from ._engine import BatchState, Clock, advance, kinetic, pair_forces
+from ._engine import BatchState, Clock, kinetic, pair_forces
 from ._flat import FlatScene
+
+if TYPE_CHECKING:
+    import diffrax
 
 
 def _rate_form(t, y: BatchState, args):
     zero = jax.tree_util.tree_map(jnp.zeros_like, y)
     return eqx.tree_at(lambda s: (s.x, s.v), zero, (y.v, y.a))
-
-
-class BatchedVerlet(diffrax.AbstractSolver):
-    """Velocity Verlet with return mapping (Sect. 3) for a batch, each collision on its clock.
-
-    ``args`` is ``(flat, clock, settings)``. History (plastic parts, dissipation, the
-    stopping rule) is a discrete update of the step; the term is only the rate form
-    dx/dt = v, dv/dt = a, which diffrax may query for dense output.
-    """
-
-    term_structure: ClassVar = diffrax.AbstractTerm
-    interpolation_cls: ClassVar[Callable[..., diffrax.LocalLinearInterpolation]] = (
-        diffrax.LocalLinearInterpolation
-    )
-    substeps: int = eqx.field(static=True, default=8)
-
-    def order(self, terms):
-        return 2
-
-    def init(self, terms, t0, t1, y0, args):
-        return None
-
-    def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
-        del solver_state, made_jump, terms, t0, t1
-        flat, clock, settings = args
-        y1 = advance(flat, clock, y0, self.substeps, settings)
-        return y1, None, dict(y0=y0, y1=y1), None, diffrax.RESULTS.successful
-
-    def func(self, terms, t0, y0, args):
-        return terms.vf(t0, y0, args)
 
 
 def _all_done(t, y: BatchState, args, **kwargs):
@@ -78,6 +54,10 @@ def solve(
     The diffrax clock runs from 0 to `t1` with step `dt0`; by default it is the grid of the
     batch's smallest step (for a batch of one: its physical time). Returns diffrax's solution.
     """
+    import diffrax  # at trace time only (see the module's docstring)
+
+    from ._solver import BatchedVerlet
+
     if t1 is None:
         t1 = jnp.max(clock.t_max)
     if dt0 is None:

@@ -189,7 +189,6 @@ def _key_text(name: str, signature: tuple) -> str | None:
 
 @functools.cache
 def _versions() -> dict[str, str]:
-    import diffrax
     import jaxlib
 
     try:
@@ -200,7 +199,9 @@ def _versions() -> dict[str, str]:
         "jax": jax.__version__,
         "jaxlib": jaxlib.__version__,
         "equinox": eqx.__version__,
-        "diffrax": diffrax.__version__,
+        # from the metadata: importing diffrax only for its version would cost a loaded
+        # program's process ~0.5 s (it is imported only to trace)
+        "diffrax": importlib.metadata.version("diffrax"),
         "msfd-jax": msfd,
     }
 

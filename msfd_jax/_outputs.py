@@ -266,11 +266,11 @@ class Collision:
     def balance_warning(self) -> bool:
         """True if the run reports success but closes its energy balance only to worse than
         `BALANCE_TOLERANCE` (1e-4) K0 (its message then says how far)."""
-        return bool(balance_warning(self.solution))
+        return bool(balance_warning(self._host))
 
     @property
     def message(self) -> str:
-        text = diagnose(self.solution, self.scene) + self.retry_note
+        text = diagnose(self._host, self.scene) + self.retry_note
         if not self.retries:
             return text
         return (
@@ -300,7 +300,7 @@ class Collision:
             "retries": self.retries,
             "safety": self.safety,
             "balance_warning": self.balance_warning,
-            "t_max": float(self.solution.ts[-1]),  # the cap used (derived when t_max is None)
+            "t_max": float(self._host.ts[-1]),  # the cap used (derived when t_max is None)
             "wall_time_s": self.wall_time_s,
             "compile_time_s": self.compile_time_s,
             "params": {
@@ -380,12 +380,14 @@ def run(
     solution, wall, compile_s = _solve_timed(scene, solved)
     attempt, first, first_text, note = 0, None, None, ""
     best = (solution, wall, 0)
+    # the decisions read the balance on the host, as the record reports it (`Collision`):
+    # eager jax ops would each load a small program in a new process
     while bool(
         needs_retry(
             solution.result,
             solution.dt,
             solution.dt_critical,
-            solution.energy_balance_error,
+            _host_balance(solution),
             attempt,
         )
     ):
@@ -397,9 +399,9 @@ def run(
         if bool(
             keep_earlier(
                 kept.result,
-                kept.energy_balance_error,
+                _host_balance(kept),
                 solution.result,
-                solution.energy_balance_error,
+                _host_balance(solution),
             )
         ):
             note = RETRY_NOTE
@@ -426,6 +428,11 @@ def run(
     if check and int(solution.result) in FAILED:
         raise SimulationError(collision.message, collision)
     return collision
+
+
+def _host_balance(solution: Solution) -> np.ndarray:
+    """`Solution.energy_balance_error` computed with numpy on a host copy (`array_module`)."""
+    return jax.device_get(solution).energy_balance_error
 
 
 def _solve_timed(scene: Scene, settings: Settings):

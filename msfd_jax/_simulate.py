@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
-import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -19,7 +19,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from . import _export
-from ._cap import time_cap
+from ._cap import concrete_time_cap, time_cap
 from ._core import chain_state, history_of, solve
 from ._dynamics import State, critical_step
 from ._engine import BatchState, make_clock
@@ -36,6 +36,9 @@ from ._results import (  # noqa: F401  (the former constants, re-exported)
     TIME_LIMIT,
 )
 from ._scene import Scene
+
+if TYPE_CHECKING:  # diffrax is imported where a solve is traced (`_simulate`, `_core.solve`)
+    import diffrax
 
 _critical_step = eqx.filter_jit(critical_step)
 
@@ -188,9 +191,10 @@ def resolve_cap(scene: Scene, settings: Settings) -> Settings:
     """
     if settings.t_max is not None:
         return settings
-    cap = jax.lax.stop_gradient(time_cap(scene))  # a cap, not a design output
-    if not isinstance(cap, jax.core.Tracer):
-        cap = float(cap)
+    if any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(scene)):
+        cap = jax.lax.stop_gradient(time_cap(scene))  # a cap, not a design output
+    else:  # mostly on the host: eager jax ops each load a small program
+        cap = concrete_time_cap(scene)
     return dataclasses.replace(settings, t_max=cap)
 
 
@@ -207,7 +211,11 @@ def max_steps_for(scene: Scene, settings: Settings) -> int:
     if any(isinstance(v, jax.core.Tracer) for v in values):
         raise ValueError("under jit/vmap give Settings(max_steps=...) explicitly")
     # on the host, as `step_size` would compute it: eager jax ops each load a program
-    dt = settings.dt if settings.dt is not None else np.asarray(values[0]) * settings.safety
+    dt = (
+        settings.dt
+        if settings.dt is not None
+        else np.asarray(values[0]) * np.asarray(settings.safety)
+    )
     n = float(np.max(np.asarray(settings.t_max) / (np.asarray(dt) * settings.substeps)))
     return 2 ** max(8, math.ceil(math.log2(1.02 * n + 16)))
 
@@ -218,6 +226,8 @@ def _simulate(
 ) -> Solution:
     # the batched core with a batch of one (issue 11): the diffrax clock is then the
     # collision's own physical time, so histories and shapes are saved at physical times
+    import diffrax  # at trace time: a stored program (`_export`) runs without diffrax
+
     flat = flatten(scene)
     dt, dt_crit = step_size(scene, settings, dt_critical)
     # t_max=None: this collision's derived cap, on its floor's grid (`make_clock`)
@@ -317,7 +327,8 @@ def prepare(scene: Scene, settings: Settings, adjoint=None, dt_critical=None) ->
     ``_simulate.lower(*prepare(...)).compile()`` compiles (or loads from the persistent
     cache) ahead of the run, so that `run` can time compilation and the run apart.
     """
-    adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
+    # adjoint None stays None: `_core.solve` takes diffrax's RecursiveCheckpointAdjoint, the
+    # same program, and a process that loads a stored program needs no diffrax for the key
     cap = resolve_cap(scene, settings).t_max  # t_max stays None: _simulate derives it again
     if not isinstance(cap, jax.core.Tracer):
         # shape times past the cap are dropped (a short run keeps the default times it reaches)

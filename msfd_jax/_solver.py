@@ -1,4 +1,8 @@
-"""The MS-FD time step as a diffrax solver (after diffrax's ``SemiImplicitEuler``).
+"""The MS-FD time step as diffrax solvers (after diffrax's ``SemiImplicitEuler``).
+
+`BatchedVerlet` is the solver of every run (`_core.solve`); `VelocityVerlet`, the per-chain
+step, serves the accuracy studies. This module imports diffrax, so only code that traces a
+solve imports it (`_core.solve`, inside the function).
 
 History (plastic parts, permanent sets, dissipation) is a discrete update, so it belongs to the
 solver step, not to a vector field: the term below is only the rate form dx/dt = v,
@@ -16,6 +20,7 @@ import jax
 import jax.numpy as jnp
 
 from ._dynamics import State, verlet_step
+from ._engine import advance
 
 
 def rate_form(t, y: State, args):
@@ -58,6 +63,36 @@ class VelocityVerlet(diffrax.AbstractSolver):
             y1 = substep(0, y0)
         else:
             y1 = jax.lax.fori_loop(0, self.substeps, substep, y0)
+        return y1, None, dict(y0=y0, y1=y1), None, diffrax.RESULTS.successful
+
+    def func(self, terms, t0, y0, args):
+        return terms.vf(t0, y0, args)
+
+
+class BatchedVerlet(diffrax.AbstractSolver):
+    """Velocity Verlet with return mapping (Sect. 3) for a batch, each collision on its clock.
+
+    ``args`` is ``(flat, clock, settings)``. History (plastic parts, dissipation, the
+    stopping rule) is a discrete update of the step; the term is only the rate form
+    dx/dt = v, dv/dt = a, which diffrax may query for dense output.
+    """
+
+    term_structure: ClassVar = diffrax.AbstractTerm
+    interpolation_cls: ClassVar[Callable[..., diffrax.LocalLinearInterpolation]] = (
+        diffrax.LocalLinearInterpolation
+    )
+    substeps: int = eqx.field(static=True, default=8)
+
+    def order(self, terms):
+        return 2
+
+    def init(self, terms, t0, t1, y0, args):
+        return None
+
+    def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
+        del solver_state, made_jump, terms, t0, t1
+        flat, clock, settings = args
+        y1 = advance(flat, clock, y0, self.substeps, settings)
         return y1, None, dict(y0=y0, y1=y1), None, diffrax.RESULTS.successful
 
     def func(self, terms, t0, y0, args):

@@ -12,7 +12,13 @@ from conftest import SMALL_MESH
 
 import msfd_jax as m
 from msfd_jax import _attempts
-from msfd_jax._cap import T_MAX_CEILING, T_MAX_FLOOR, stopping_time, time_cap
+from msfd_jax._cap import (
+    T_MAX_CEILING,
+    T_MAX_FLOOR,
+    concrete_time_cap,
+    stopping_time,
+    time_cap,
+)
 from msfd_jax._results import BALANCE_TOLERANCE
 from msfd_jax._safe import unwrap_near
 from msfd_jax._sweep import SWEEP_SETTINGS
@@ -39,6 +45,20 @@ def test_the_derived_cap_keeps_the_former_cap_for_the_showcase_and_grows_for_hea
         for g in (10.0, 100.0, 1e4)
     ]
     assert caps[0] <= caps[1] < caps[2] == T_MAX_CEILING
+
+
+def test_the_host_cap_is_the_eager_cap_bit_for_bit():
+    # issue 11 goal 4: `resolve_cap` computes a concrete cap mostly on the host (numpy), where
+    # the clip decides it; in between it defers to jax (floor, between, ceiling here)
+    for g in (1.0, HEAVY_SLOW["mass_ratio"], 1e4):
+        for params in (
+            m.CollisionParams(mass_ratio=g),
+            m.CollisionParams(**{**HEAVY_SLOW, "mass_ratio": g}),
+        ):
+            scene = m.ring_on_beam(params, SMALL_MESH)
+            assert concrete_time_cap(scene) == float(time_cap(scene))
+    plate = m.ring_on_plate()
+    assert concrete_time_cap(plate) == float(time_cap(plate)) == T_MAX_FLOOR
 
 
 def test_a_heavy_slow_impact_that_hit_the_former_cap_now_settles():
