@@ -215,7 +215,8 @@ def main(argv=None) -> dict:
         "mesh": f"mesh {mesh.ring_segments}/{mesh.beam_contact_segments}+"
         f"{mesh.beam_outer_segments}" + (", collapse contacts" if args.collapse else ""),
         "settings": f"t_max {settings.t_max}, energy_guard {settings.energy_guard}, "
-        f"safety {settings.safety}",
+        f"safety {settings.safety}, balance retry above {_attempts.BALANCE_RETRY_ABOVE:g} K0 "
+        f"x {_attempts.BALANCE_RETRIES}",
         "versions": versions(),
         "per_seed": per,
         "total": {**summary(rows), "skipped": skipped, "wall_s": total_wall},

@@ -5,6 +5,7 @@ Shared by `run` (`_outputs`), sweeps (`_retry`) and the stability catalogue.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 
 import numpy as np
@@ -19,18 +20,18 @@ STEP_CAUSE = 0.95
 MAX_RETRIES = 2
 RETRY_FACTOR = 0.5
 # Issue 12 item 1: a run that reports success but closes its energy balance only to worse than
-# BALANCE_RETRY_ABOVE (2 x BALANCE_TOLERANCE) K0 is also rerun with the step halved, at most
-# BALANCE_RETRIES halvings in all (failure retries included); the attempt reported is the
+# BALANCE_RETRY_ABOVE (= BALANCE_TOLERANCE, 1e-4) K0 is also rerun with the step halved, at
+# most BALANCE_RETRIES halvings in all (failure retries included); the attempt reported is the
 # success with the smallest |error| (`keep_earlier`). 2 from the evidence in docs/stability.md:
 # the sharp-contact residual falls ~10x per halving (row 1/91: 4.1e-2, 3.3e-4, 4.7e-5 K0),
 # a third halving would cost 8x the first run for the few rows two do not close.
 BALANCE_RETRIES = 2
-# Only a balance open by more than BALANCE_RETRY_ABOVE K0 is rerun; one between
-# BALANCE_TOLERANCE and it keeps its first run, flagged (`balance_warning`). 2e-4: the paper's
-# thin free beam (tests/test_regression.py, thin_free) settles with 1.45e-4 K0 open and a
-# partition that one ulp moves by 1.2e-3 K0, so a rerun (2x the cost) would change its
-# recorded result (steps 23 440 -> 47 184) and buy less than that spread.
-BALANCE_RETRY_ABOVE = 2 * BALANCE_TOLERANCE
+# The rerun threshold is the flag's: no success is left open above 1e-4 K0 without a rerun
+# (issue 12 item 1's goal). At 2e-4 (the former value) 74 of 300 random-design successes stayed
+# flagged between 1e-4 and 3.9e-4 K0, 29 of them never rerun (docs/stability.md). The paper's
+# thin free beam (tests/test_regression.py, thin_free: 1.45e-4 K0 open) is now rerun; the
+# regression record is its first attempt, which that test compares with the retry off.
+BALANCE_RETRY_ABOVE = BALANCE_TOLERANCE
 RETRY_NOTE = "; a rerun at a smaller step closed the balance no better"
 
 
@@ -63,6 +64,20 @@ def keep_earlier(result, error, later_result, later_error):
         np.abs(np.asarray(error)) <= np.abs(np.asarray(later_error))
     )
     return _success(result) & later_worse
+
+
+@contextlib.contextmanager
+def first_attempts():
+    """Within the block no success is rerun for its balance (`BALANCE_RETRIES` = 0): `run`
+    and sweeps report each successful collision's first attempt, as the regression record
+    (benchmarks/results/regression_baseline.json, recorded before issue 12 item 1) holds it.
+    Failure retries stay on. Process-wide: not for use while other threads solve."""
+    global BALANCE_RETRIES
+    kept, BALANCE_RETRIES = BALANCE_RETRIES, 0
+    try:
+        yield
+    finally:
+        BALANCE_RETRIES = kept
 
 
 def smaller_step(settings: Settings) -> Settings:

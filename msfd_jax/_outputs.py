@@ -343,9 +343,9 @@ def run(
     run went non-finite, broke its energy balance or hit the step bound, unless
     ``check=False``. A run stopped for a reason a smaller step can fix (`step_is_cause`) is
     first rerun with the step halved, at most `MAX_RETRIES` times (issue 12); so is a run
-    that reports success with its balance open by more than `BALANCE_RETRY_ABOVE` (2e-4) K0
-    (one open by 1e-4 to 2e-4 is only flagged, `balance_warning`), at most
-    `BALANCE_RETRIES` halvings (`needs_retry`). The attempt reported is the last one, or the
+    that reports success with its balance open by more than `BALANCE_RETRY_ABOVE` (1e-4,
+    = `BALANCE_TOLERANCE`) K0, at most `BALANCE_RETRIES` halvings (`needs_retry`; a run
+    still open then is flagged, `balance_warning`). The attempt reported is the last one, or the
     successful one with the smallest |error| (`keep_earlier`; its message then ends with
     `RETRY_NOTE`); `retries` and `safety` are those of the reported run, its message names
     the first run's failure or open balance.

@@ -4,7 +4,7 @@ A collision stopped by a guard for a reason a smaller step can fix (`_attempts.s
 non-finite or energy balance broken with dt above 0.95 x the stability limit) is solved again
 with the step halved (`_attempts.smaller_step`), at most `_attempts.MAX_RETRIES` times, as
 `run` does for one collision; so is a collision that reports success with its energy balance
-open by more than `_attempts.BALANCE_RETRY_ABOVE` (2e-4) K0, at most
+open by more than `_attempts.BALANCE_RETRY_ABOVE` (1e-4) K0, at most
 `_attempts.BALANCE_RETRIES` halvings (`_attempts.needs_retry`). Rows failing for another
 reason (a crushed ring bar without collapse contacts, ...) are not retried. The attempt
 reported is the last one, or an earlier success that closed its balance better

@@ -63,7 +63,9 @@ OUTPUTS = (*SOLVED_OUTPUTS, *RETRY_OUTPUTS)  # retries, safety: issue 12 (`_retr
 SWEEP_SETTINGS = Settings(history_points=2, shape_times=())
 MAX_CHUNK = 65_536  # slots or vmapped rows per compiled call (chunks are padded to it)
 DEFAULT_CHUNK = DEFAULT_SLOTS  # slots per worker: the fastest per collision-step on one core
-# compile and run time of the last in-process sweep (slots, segments, compile_s, run_s)
+# compile and run time of the last in-process sweep (slots, segments, compile_s, run_s, and
+# steps: the Verlet steps of every attempt, the reruns at a smaller step included; those run
+# in the same queue, issue 12)
 LAST_TIMING: dict = {}
 
 

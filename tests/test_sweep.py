@@ -57,11 +57,21 @@ def test_sweep_equals_single_runs(table):
         )
         params = m.CollisionParams(thickness_ratio=thickness, axial_constraint=constraint)
         single = m.run(params, SMALL_MESH, SHORT, contact_smoothing=SMOOTH).to_json()
+        # the same attempts (issue 12 item 1: the h_b/h_r = 1 rows settle their first attempt
+        # with 1.04-1.06e-4 K0 open and are rerun at half the step, in the sweep as in run)
+        assert table["retries"][i] == single["retries"]
+        assert table["safety"][i] == pytest.approx(single["safety"], rel=1e-12)
         # vmap batches the same arithmetic but may reorder float reductions (measured up to
-        # 9e-11 relative on these runs); 1e-9 still catches any difference in the physics
+        # 9e-11 relative on these runs' first attempts); 1e-9 still catches any difference in
+        # the physics. A rerun runs twice the steps, in a batch of the rerun rows only, and
+        # amplifies the reordering further: row 0 at safety 0.35 (7072 steps) measured 1.2e-9
+        # and 3.3e-9 relative (kinetic_ring, kinetic_beam; 2.4e-10 K0) in two processes, so a
+        # rerun row is held to 1e-8 (a different attempt or step is caught by the asserts on
+        # retries, safety and steps)
+        rel = 1e-8 if single["retries"] else 1e-9
         fractions = {**single["fractions"], **single["kinetic_split"]}
         for key, value in fractions.items():
-            assert table[key][i] == pytest.approx(value, rel=1e-9, abs=1e-12), key
+            assert table[key][i] == pytest.approx(value, rel=rel, abs=1e-12), key
         assert table["energy_balance_error"][i] == pytest.approx(
             single["energy_balance_error"], rel=1e-6, abs=1e-10
         )
