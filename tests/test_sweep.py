@@ -295,13 +295,16 @@ def test_a_retry_runs_in_the_queue_as_it_would_alone(monkeypatch):
 
     lean = dataclasses.replace(SWEEP_SETTINGS, max_steps=2**14)
     rows = [{}, {"thickness_ratio": 1.5}, {"thickness_ratio": 3.0}]
-    # on the coarse mesh these close their balance only to ~2e-4 K0 at safety 0.7: each is
-    # rerun once at 0.35 (test_reliability.py)
+    # on the coarse mesh these close their balance only to ~1e-4-2e-4 K0 at safety 0.7: each
+    # is rerun (test_reliability.py), some twice
     table = sweep(rows, SMALL_MESH, lean, workers=1)
-    assert list(table["retries"]) == [1, 1, 1]
+    assert all(r >= 1 for r in table["retries"])
     assert _sweep.LAST_TIMING["steps"] > int(np.sum(table["steps"]))  # the first attempts too
     monkeypatch.setattr(_attempts, "BALANCE_RETRIES", 0)
-    alone = sweep(rows, SMALL_MESH, dataclasses.replace(lean, safety=0.35), workers=1)
-    assert list(alone["retries"]) == [0, 0, 0]
-    for key in ("steps", "t_end", "dt", "energy_balance_error", *FRACTION_KEYS):
-        np.testing.assert_array_equal(table[key], alone[key], err_msg=key)
+    for safety in sorted(set(np.asarray(table["safety"]).round(12).tolist())):
+        these = np.flatnonzero(np.isclose(table["safety"], safety))
+        at = dataclasses.replace(lean, safety=float(0.7 * 0.5 ** table["retries"][these[0]]))
+        alone = sweep([rows[i] for i in these], SMALL_MESH, at, workers=1)
+        assert list(alone["retries"]) == [0] * len(these)
+        for key in ("steps", "t_end", "dt", "energy_balance_error", *FRACTION_KEYS):
+            np.testing.assert_array_equal(table[key][these], alone[key], err_msg=key)
