@@ -23,6 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array
 
+from ._attempts import RETRY_FACTOR
 from ._cap import time_cap
 from ._core import solve
 from ._dynamics import State
@@ -209,7 +210,8 @@ def run_queue(
         attempts = np.concatenate([attempts, np.zeros(pad, np.int64)])
         p = CollisionParams(**{k: jnp.asarray(params[k][rows]) for k in names})
         steps = np.asarray(bounds, np.float64)[np.minimum(attempts, len(bounds) - 1)]
-        return p, jnp.asarray(dt_critical[rows]), jnp.asarray(steps), jnp.asarray(0.5**attempts)
+        factor = jnp.asarray(RETRY_FACTOR**attempts)  # the step of attempt a: exact powers of 2
+        return p, jnp.asarray(dt_critical[rows]), jnp.asarray(steps), factor
 
     def take(count):
         with lock:
