@@ -317,21 +317,35 @@ def from_si(
     if beam_width is not None:
         _check_value("beam_width", beam_width, 0.0, math.inf, False, False)
     b_b = width if beam_width is None else beam_width
-    mu_r = density * width * ring_thickness
-    m_pr = yield_stress * width * ring_thickness**2 / 4.0
-    t_scale = math.sqrt(mu_r * radius**3 / m_pr)
+    # in float64 numpy, where an extreme but finite input overflows to inf (Python's float
+    # ** raises OverflowError instead: radius = 5.7e102 overflowed R^3): a group or scale that
+    # is not finite is then refused below, naming the SI inputs, never a traceback
+    f = np.float64
+    with np.errstate(over="ignore", under="ignore", invalid="ignore", divide="ignore"):
+        mu_r = f(density) * f(width) * f(ring_thickness)
+        m_pr = f(yield_stress) * f(width) * f(ring_thickness) ** 2 / 4.0
+        t_scale = np.sqrt(mu_r * f(radius) ** 3 / m_pr)  # the formula as before, bit for bit
+        groups = dict(
+            thickness_ratio=f(beam_thickness) / f(ring_thickness),
+            modulus_ratio=f(youngs_modulus) / f(yield_stress),
+            slenderness=f(radius) / f(ring_thickness),
+            mass_ratio=0.5 * f(block_mass) / (mu_r * f(radius)),
+            velocity=f(velocity) * t_scale / f(radius),
+            span_ratio=f(beam_half_span) / f(radius),
+            width_ratio=f(b_b) / f(width),
+        )
+        scales = (m_pr, f(radius), t_scale, f(radius) / t_scale, m_pr / f(radius))
     params = CollisionParams(
-        thickness_ratio=beam_thickness / ring_thickness,
-        modulus_ratio=youngs_modulus / yield_stress,
-        slenderness=radius / ring_thickness,
-        mass_ratio=0.5 * block_mass / (mu_r * radius),
-        velocity=velocity * t_scale / radius,
-        span_ratio=beam_half_span / radius,
-        width_ratio=b_b / width,
+        **{k: float(v) for k, v in groups.items()},
         axial_constraint=1.0 if axial_constraint else 0.0,
     )
-    scales = Scales(m_pr, radius, t_scale, radius / t_scale, m_pr / radius)
-    return params, scales
+    if not all(np.isfinite(scales)) or not all(v > 0.0 for v in scales):
+        raise ValueError(
+            "the SI inputs give unit scales that are not finite positive float64 numbers "
+            f"(M_pr = {float(m_pr):g} N m, T = {float(t_scale):g} s from yield_stress, density, "
+            "width, ring_thickness, radius): give values within float64's range"
+        )
+    return params, Scales(*(float(v) for v in scales))
 
 
 PAPER_SI = dict(

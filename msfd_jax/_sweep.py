@@ -180,7 +180,8 @@ def sweep(
     - `workers`: threads of an in-process sweep, each with its own `chunk_size` slots, all
       fed from one queue (None: one per core this process may use, `_queue.default_workers`;
       1 on an accelerator). The rows do not depend on it (a collision's result does not
-      depend on its slot). A cluster's tasks run one thread each (its workers are the cores).
+      depend on its slot). A cluster's tasks run one thread each (its workers are the cores):
+      with a `client`, `workers` must stay None.
     - `on_rows(rows, outputs)`: called as each group of collisions finishes (after it is
       written), with their row positions in the table and their output columns.
 
@@ -191,6 +192,12 @@ def sweep(
     task_size = chunk_size if task_size is None else task_size
     _check_sweep(columns, mesh, chunk_size, shard, contact_smoothing, yield_smoothing, task_size)
     _check_workers(workers)
+    if client is not None and workers is not None:
+        raise ValueError(
+            f"workers={workers!r} sets this process's threads; with a Dask client each task runs "
+            "one thread (the cluster's workers are the cores): leave workers=None and size the "
+            "cluster instead"
+        )
     start = time.perf_counter()
     store = None if output is None else open_store(output)
     kept = np.zeros(n, dtype=bool)

@@ -158,6 +158,13 @@ def test_resume_refuses_other_numerics_and_other_collisions(reference, tmp_path)
         sweep(GRID, MESH, SETTINGS, **OPTIONS, output=tmp_path / "rows.txt")
 
 
+def test_worker_threads_are_refused_with_a_client():
+    """A cluster's tasks run one thread each: a thread count beside a client would be ignored,
+    so it is refused (before the client is used: a stand-in object serves)."""
+    with pytest.raises(ValueError, match="workers=2 sets this process's threads"):
+        sweep(GRID, MESH, SETTINGS, **OPTIONS, client=object(), workers=2)
+
+
 COARSE = ["--ring-segments", "8", "--beam-contact-segments", "10", "--beam-outer-segments", "3"]
 CLI_GRID = ["--thickness-ratio", "1,2,3", "--mass-ratio", "5,10", "--t-max", "1.0"]
 CLI_OPTIONS = ["--chunk-size", "2", "--contact-smoothing", str(COMPARE_SMOOTHING), "-q"]
@@ -186,6 +193,7 @@ def test_cli_cluster_sweep_writes_the_in_process_rows(reference, cache, tmp_path
         (["--resume"], "--resume needs --csv"),
         (["--task-size", "4"], "--task-size needs --cluster"),
         (["--cluster", "local:2", "--shard"], "--shard"),
+        (["--cluster", "local:2", "--workers", "2"], "size the cluster instead"),
         (["--csv", "rows.txt"], "must end in .csv"),
     ],
 )

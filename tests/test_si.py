@@ -150,7 +150,7 @@ def test_si_sweep_rows_equal_si_runs(tmp_path, capsys):
     of these thin beams amplifies the batch's rounding differences to ~1e-4 K0)."""
     out = tmp_path / "si.csv"
     argv = [
-        "sweep", "--si", "--beam-thickness", "0.004,0.006", *SMALL[:4], "-q",
+        "sweep", "--si", "--beam-thickness", "0.004,0.006", *SMALL[:4], "-q", "--no-cache",
         "--csv", str(out), f"--contact-smoothing={COMPARE_SMOOTHING}",
     ]  # fmt: skip
     assert main(argv) == 0
@@ -167,3 +167,20 @@ def test_si_sweep_rows_equal_si_runs(tmp_path, capsys):
         assert table["beam_bending_J"][i] == pytest.approx(
             si["dissipated_J"]["beam_bending"], rel=1e-6, abs=1e-9 * si["k0_J"]
         )
+
+
+@pytest.mark.parametrize(
+    "change, match",
+    [
+        ({"radius": 5.7e102}, "slenderness"),  # R^3 overflowed float64 (hypothesis found it)
+        ({"ring_thickness": 1e200}, "slenderness"),  # h_r^2 overflowed
+        ({"density": 1e-300, "width": 1e-300}, "mass_ratio .* must be finite"),
+    ],
+)
+def test_extreme_si_inputs_are_refused_naming_a_group(change, match):
+    """Finite SI values whose scales overflow or underflow float64 are refused with the
+    group they break (the CLI adds the SI options it is made of), never an OverflowError."""
+    with pytest.raises(ValueError, match=match):
+        m.from_si(**{**m.PAPER_SI, **change})
+    params, scales = m.from_si(**m.PAPER_SI)  # the paper's case is unchanged
+    assert math.isfinite(scales.time) and params.slenderness == pytest.approx(10.0)

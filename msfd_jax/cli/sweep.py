@@ -70,7 +70,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=int,
         metavar="N",
         help="threads, each with its own --chunk-size slots fed from one queue "
-        "(default: one per core this process may use; 1 with --cluster)",
+        "(default: one per core this process may use; refused with --cluster, whose workers "
+        "are single-threaded processes)",
     )
     batch.add_argument("--shard", action="store_true", help="split chunks across JAX devices")
     batch.add_argument(
@@ -262,6 +263,12 @@ def _client(args: argparse.Namespace):
         raise common.UsageError(
             "--shard splits chunks over this process's devices; with --cluster each worker is "
             "one single-threaded process: ask for more workers instead"
+        )
+    if args.workers is not None:
+        raise common.UsageError(
+            f"--workers {args.workers} sets this process's threads; with --cluster each Dask "
+            "worker is one single-threaded process, so the threads would be ignored: size the "
+            "cluster instead (local:N for N processes)"
         )
     try:
         _cluster.parse(args.cluster)
