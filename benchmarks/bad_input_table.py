@@ -375,6 +375,9 @@ CASES: tuple[Case, ...] = (
     _C("run --plot=figure.txt", "--plot", "allowed:", 2),
     _C("sweep --velocity=0:1:1000000000", "--velocity", "1 <= n <= 1000000", 2),
     _C("sweep --velocity=0.1:1:1000 --mass-ratio=1:9:1001", "--mass-ratio", "<= 1000000", 2),
+    _C("m.from_si(**{**m.PAPER_SI, 'radius': 5.7e102})", "slenderness", RANGE["slenderness"]),
+    _C("run --si --radius=5.7e102", "--radius", RANGE["slenderness"], 2),
+    _C("sweep --cluster=local:2 --workers=2", "--workers", None, 2),
     _C("bench nonsense", "nonsense", None, 2),
     _C("bench stability --only nonsense", "nonsense", "known:", 2),
 )
