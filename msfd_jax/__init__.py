@@ -15,6 +15,7 @@ from ._chain import Chain, Section, rectangular_section  # noqa: E402
 from ._contact import AbstractContact, NodeToNodeContact, NodeToPlaneContact  # noqa: E402
 from ._dynamics import State, critical_step, initial_state, max_frequency, respond  # noqa: E402
 from ._laws import contact_energy, contact_spring, elastic_plastic, ramp  # noqa: E402
+from ._mappings import CompiledProgramsReleased  # noqa: E402
 from ._outputs import (  # noqa: E402
     FRACTION_KEYS,
     Collision,
@@ -38,6 +39,7 @@ from ._simulate import Settings, Solution, simulate  # noqa: E402
 from ._sweep import SweepTable, solve_collisions, sweep  # noqa: E402
 
 __all__ = [
+    "CompiledProgramsReleased",
     "SweepTable",
     "sweep",
     "solve_collisions",

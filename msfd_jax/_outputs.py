@@ -14,6 +14,7 @@ from ._attempts import RETRY_NOTE, STEP_CAUSE, keep_earlier, needs_retry, smalle
 from ._collapse import BlockFaceContact, SelfContact
 from ._engine import FOLD_LIMIT
 from ._export import compile_program
+from ._mappings import release_if_near_limit
 from ._params import CollisionParams, Mesh, Scales
 from ._provenance import mesh_json, settings_json, versions
 from ._results import BALANCE_TOLERANCE, FAILED, RESULTS
@@ -368,6 +369,7 @@ def run(
                 f"{name} must be a single value: run() simulates one collision "
                 "(use msfd_jax.sweep or jax.vmap over simulate for many)"
             )
+    release_if_near_limit()  # before compiling: XLA would crash past vm.max_map_count
     scene = ring_on_beam(
         params, mesh, contact_smoothing=contact_smoothing, yield_smoothing=yield_smoothing
     )

@@ -27,6 +27,7 @@ from . import _attempts
 from ._attempts import smaller_step
 from ._cap import T_MAX_CEILING
 from ._cluster import solve_on_cluster
+from ._mappings import release_if_near_limit
 from ._outputs import FRACTION_KEYS, balance_warning, diagnose, fractions
 from ._params import CollisionParams, Mesh, validate
 from ._progress import SweepProgress as _SweepProgress
@@ -198,6 +199,7 @@ def sweep(
             "one thread (the cluster's workers are the cores): leave workers=None and size the "
             "cluster instead"
         )
+    release_if_near_limit()  # before compiling: XLA would crash past vm.max_map_count
     start = time.perf_counter()
     store = None if output is None else open_store(output)
     kept = np.zeros(n, dtype=bool)
