@@ -1,0 +1,63 @@
+"""Memory mappings that XLA:CPU keeps per compiled program (the stop-19 CI segfault).
+
+Counts this process's mappings (/proc/self/maps) before and after one collision run and one
+sweep on the small test mesh (each compiles its own programs), after `jax.clear_caches()`,
+and prints how many distinct programs fit under vm.max_map_count. Linux only.
+
+    python benchmarks/memory_maps.py            # writes benchmarks/results/memory_maps.md
+"""
+
+from __future__ import annotations
+
+import datetime
+import gc
+import os
+from pathlib import Path
+
+import jax
+
+import msfd_jax as m
+from msfd_jax import _mappings
+
+OUT = Path(__file__).resolve().parent / "results" / "memory_maps.md"
+
+
+def main() -> None:
+    mesh = m.Mesh(ring_segments=6, beam_contact_segments=8, beam_outer_segments=2)
+    settings = m.Settings(t_max=0.2, history_points=3, shape_times=())
+    count = lambda: _mappings.usage()[0]  # noqa: E731
+    start = count()
+    m.run(m.CollisionParams(), mesh, settings)
+    after_run = count()
+    m.sweep([{"thickness_ratio": t} for t in (1.0, 2.0)], mesh, settings, workers=1)
+    after_sweep = count()
+    jax.clear_caches()
+    gc.collect()
+    cleared = count()
+    limit = _mappings.usage()[1]
+    run_maps, sweep_maps = after_run - start, after_sweep - after_run
+    stamp = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    lines = [
+        "# Memory mappings per compiled program (XLA:CPU)",
+        "",
+        f"`python benchmarks/memory_maps.py` · {stamp} · jax {jax.__version__} · "
+        f"XLA_FLAGS={os.environ.get('XLA_FLAGS', '')!r} · vm.max_map_count {limit}",
+        "",
+        "| what | mappings |",
+        "|---|---:|",
+        f"| process after import and one op | {start} |",
+        f"| + one `run` (its programs compiled) | {run_maps} |",
+        f"| + one `sweep` (the queue's programs) | {sweep_maps} |",
+        f"| after `jax.clear_caches()` (above the start) | {cleared - start} |",
+        "",
+        f"Distinct collision programs that fit under the limit: about {limit // run_maps}. "
+        "msfd_jax releases compiled programs above "
+        f"{_mappings.RELEASE_AT:g} of the limit (`msfd_jax/_mappings.py`).",
+    ]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    OUT.write_text(text)
+
+
+if __name__ == "__main__":
+    main()
