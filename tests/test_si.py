@@ -184,3 +184,19 @@ def test_extreme_si_inputs_are_refused_naming_a_group(change, match):
         m.from_si(**{**m.PAPER_SI, **change})
     params, scales = m.from_si(**m.PAPER_SI)  # the paper's case is unchanged
     assert math.isfinite(scales.time) and params.slenderness == pytest.approx(10.0)
+
+
+def test_from_si_keeps_the_former_python_float_arithmetic():
+    """from_si moved to float64 numpy (overflow refused, not raised): its groups and scales
+    are those of the former Python-float formulas bit for bit, on random SI inputs."""
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        si = {k: v * float(np.exp(rng.uniform(-0.5, 0.5))) for k, v in m.PAPER_SI.items()}
+        params, scales = m.from_si(**si)
+        mu_r = si["density"] * si["width"] * si["ring_thickness"]
+        m_pr = si["yield_stress"] * si["width"] * si["ring_thickness"] ** 2 / 4.0
+        t = math.sqrt(mu_r * si["radius"] ** 3 / m_pr)
+        assert params.slenderness == si["radius"] / si["ring_thickness"]
+        assert params.mass_ratio == 0.5 * si["block_mass"] / (mu_r * si["radius"])
+        assert params.velocity == si["velocity"] * t / si["radius"]
+        assert (scales.moment, scales.time, scales.force) == (m_pr, t, m_pr / si["radius"])
