@@ -46,6 +46,7 @@ def run(extra: list[str], cache: str) -> tuple[float, str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", nargs="+", choices=list(KEYS), default=list(KEYS))
+    parser.add_argument("--output", type=Path, default=RESULTS / "sweep_1024.md")
     args = parser.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as cache:
@@ -67,7 +68,7 @@ def main() -> None:
         "|---|---:|---:|---|",
     ]
     lines += [f"| {n} | {c:.1f} | {w:.1f} | {s} |" for n, c, w, s in rows]
-    (RESULTS / "sweep_1024.md").write_text("\n".join(lines) + "\n")
+    args.output.write_text("\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":

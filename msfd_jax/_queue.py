@@ -185,7 +185,9 @@ def run_queue(
     `params`, a batch-first `Solution` of them (no histories), each one's share of the
     run time (compile time excluded) and its attempt; calls are serialised. Returns the
     slot count, the worker count, the number of segments and of compactions (below), the
-    compile and run times (run time: wall time of the whole queue, compile excluded).
+    Verlet steps the slots ran in all (`slot_steps`, busy or idle: the sweep's steps over it
+    is the lanes' utilisation), the compile and run times (run time: wall time of the whole
+    queue, compile excluded).
 
     The tail: once the queue is empty and at most half of a worker's slots still run, their
     collisions move into a program of fewer slots (the next power of two, down to
@@ -257,6 +259,7 @@ def run_queue(
     programs_for(b, (flat, clock, y))
     compile_s = time.perf_counter() - tick
     segments, halvings = [0] * workers, [0] * workers
+    slot_steps = [0] * workers  # Verlet steps the lanes ran, busy or idle (utilisation)
     errors: list[BaseException] = []
 
     def shrink(state, slot_row, busy, slot_attempt, size):
@@ -285,6 +288,7 @@ def run_queue(
             done = np.asarray(y.done) > 0
             wall = time.perf_counter() - tick
             segments[w] += 1
+            slot_steps[w] += len(slot_row) * segment * settings.substeps
             active = slot_row >= 0
             busy[active] += wall / max(int(active.sum()), 1)
             finished = done & active
@@ -362,7 +366,8 @@ def run_queue(
     late = sum(compiled[1:])
     return dict(
         slots=b, workers=workers, segments=sum(segments), compactions=sum(halvings),
-        compile_s=compile_s + late, run_s=time.perf_counter() - tick - late,
+        slot_steps=sum(slot_steps), compile_s=compile_s + late,
+        run_s=time.perf_counter() - tick - late,
     )  # fmt: skip
 
 

@@ -1,0 +1,148 @@
+"""Pruned ring-beam contact (issue 11): blocks out of reach are skipped, and nothing changes.
+
+`_engine.contact_blocks` splits a node-to-node set into blocks and `_near_blocks` skips the
+blocks whose bounding boxes are at least the gap apart in every collision of the batch. These
+tests hold the pruned step to the unpruned one (`_engine.SKIP_FAR_BLOCKS` off: every block
+evaluated, in the same blocks and order): the block test never skips a pair within reach, and
+a sweep, a single run and a forward-mode derivative come out the same bit for bit. (Against
+the former one-block formulation the sums are grouped differently: rounding-level forces, and
+tests/test_regression.py holds the recorded runs to 1e-9 K0 and their step counts.)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import msfd_jax as m
+from msfd_jax import _engine, _sweep
+
+
+@pytest.fixture
+def dense():
+    """`dense(True)`: from then on every block is evaluated (`SKIP_FAR_BLOCKS` off); programs
+    traced before are released first (their cache key does not hold the flag), and again
+    after the test."""
+
+    def use(flag: bool):
+        jax.clear_caches()
+        _engine.SKIP_FAR_BLOCKS = not flag
+
+    yield use
+    use(False)
+
+
+def test_block_shapes():
+    assert _engine.contact_blocks(16, 21, 1) == (16, 21)  # one block, skipped while apart
+    assert _engine.contact_blocks(16, 21, 32) == (4, 7)
+    assert _engine.contact_blocks(61, 81, 32) == (16, 17)
+    assert _engine.contact_blocks(3, 4, 32) == (3, 4)  # never larger than the set
+    assert _engine.contact_blocks(31, 41, 16) == (8, 9)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_no_block_with_a_pair_in_reach_is_skipped(seed):
+    """Random rows of nodes where some pairs are within the gap in some of eight lanes: every
+    block holding such a pair is near; NaN positions make blocks near."""
+    rng = np.random.default_rng(seed)
+    na, nb, b = 13, 17, 8
+    # two rows of nodes along x (a ring and a beam side by side), jittered in every lane
+    xa = np.stack([np.linspace(0, 2, na)[:, None] + 0 * np.ones(b), np.full((na, b), 0.1)], 1)
+    xb = np.stack([np.linspace(0, 3, nb)[:, None] + 0 * np.ones(b), np.zeros((nb, b))], 1)
+    xa = xa + rng.normal(0.0, 0.05, xa.shape)
+    xb = xb + rng.normal(0.0, 0.05, xb.shape)
+    gap = jnp.full(b, 0.15)
+    dist = np.sqrt(((xa[:, None] - xb[None]) ** 2).sum(2))  # (na, nb, B)
+    within = dist < 0.15
+    assert within.any() and not within.all()
+    skipped = 0
+    for (i0, i1), (j0, j1), near in _engine._near_blocks(xa, xb, gap, (4, 5)):
+        if within[i0:i1, j0:j1].any():
+            assert bool(near)
+        skipped += not bool(near)
+    assert skipped > 0  # the test can fail both ways
+    xa[0, 0, 3] = np.nan
+    nearness = [bool(n) for (i0, _), _, n in _engine._near_blocks(xa, xb, gap, (4, 5)) if i0 == 0]
+    assert all(nearness)
+
+
+def test_a_pair_exactly_at_the_gap_is_not_skipped():
+    """Two nodes a gap apart up to rounding: the margin keeps their block in."""
+    gap = 0.3
+    xa = np.array([[0.0, 0.0]])[..., None]
+    for d in (gap * (1 - 1e-15), gap, gap * (1 + 1e-12)):
+        xb = np.array([[d, 0.0]])[..., None]
+        ((_, _, near),) = _engine._near_blocks(xa, xb, jnp.full(1, gap), (1, 1))
+        assert bool(near)
+    xb = np.array([[gap * 1.01, 0.0]])[..., None]
+    ((_, _, near),) = _engine._near_blocks(xa, xb, jnp.full(1, gap), (1, 1))
+    assert not bool(near)
+
+
+GRID = dict(
+    thickness_ratio=[0.25, 1.0, 5.0], axial_constraint=[0.0, 1.0], mass_ratio=[5.0, 40.0]
+)  # thin free beams wrap the ring (contact over most pairs), thick held ones touch locally
+COLUMNS = ("beam_bending", "beam_axial", "ring_bending", "ring_axial", "contact", "kinetic")
+
+
+def test_a_pruned_sweep_equals_the_dense_one(dense):
+    settings = _sweep.SWEEP_SETTINGS
+    pruned = m.sweep(GRID, m.Mesh(), settings, chunk_size=16)
+    dense(True)
+    full = m.sweep(GRID, m.Mesh(), settings, chunk_size=16)
+    for name in ("steps", "result", "t_end", *COLUMNS):
+        np.testing.assert_array_equal(pruned[name], full[name], err_msg=name)
+
+
+def test_a_pruned_single_run_and_its_histories_equal_the_dense_one(dense):
+    params = m.CollisionParams(thickness_ratio=0.5, axial_constraint=0.0)
+    settings = m.Settings(history_points=64)
+    pruned = m.run(params, m.Mesh(), settings)
+    dense(True)
+    full = m.run(params, m.Mesh(), settings)
+    assert int(pruned.solution.steps) == int(full.solution.steps)
+    assert pruned.fractions == full.fractions
+    for key in ("kinetic", "elastic", "contact_force"):
+        np.testing.assert_array_equal(pruned.solution.history[key], full.solution.history[key])
+
+
+def test_forward_mode_through_the_pruned_contact_equals_the_dense_one(dense):
+    """jvp of 400 substeps of a batch in contact (blocks skipped and evaluated) along x."""
+    from msfd_jax import _queue
+
+    base = {
+        f.name: getattr(m.CollisionParams(), f.name) for f in dataclasses.fields(m.CollisionParams)
+    }
+    params = m.CollisionParams(
+        **{k: jnp.full(4, float(v)) for k, v in base.items()}
+        | {"thickness_ratio": jnp.linspace(0.5, 4.0, 4)}
+    )
+    smoothing = _queue.with_flags((0.0, 0.0))
+    flat, clock, y = _queue._start(
+        params, jnp.full(4, 3e-4), m.Mesh(), smoothing, _sweep.SWEEP_SETTINGS, 10**6
+    )
+    h = jnp.full(4, 2e-4)
+
+    def advance(steps):
+        def loop(x):
+            body = lambda i, s: _engine.verlet_substep(flat, s, i * h, h, clock.tolerance)  # noqa: E731
+            out = jax.lax.fori_loop(0, steps, body, eqx.tree_at(lambda s: s.x, y, x))
+            return out.x, jnp.sum(out.contact, 0)
+
+        return loop
+
+    x_mid, _ = jax.jit(advance(600))(y.x)  # a state in contact
+    tangent = jnp.zeros_like(x_mid).at[:16, 1].set(1.0)
+    pruned = jax.jvp(jax.jit(advance(400)), (x_mid,), (tangent,))
+    dense(True)
+    full = jax.jvp(jax.jit(advance(400)), (x_mid,), (tangent,))
+    for a, b in zip(
+        jax.tree_util.tree_leaves(pruned), jax.tree_util.tree_leaves(full), strict=True
+    ):
+        np.testing.assert_array_equal(a, b)
+    assert float(jnp.min(pruned[0][1])) > 0  # every collision dissipated in contact
