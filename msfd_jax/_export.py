@@ -11,7 +11,7 @@ tracing would give:
 - the versions of Python, jax, jaxlib, equinox, diffrax and msfd-jax, and a hash of the
   core's source files (`msfd_jax/*.py`), so that an edited solver never loads an old program;
 - the trace-time settings that change the program: x64, the backend, rank promotion,
-  matmul precision, equinox's ``EQX_ON_ERROR`` and `_engine.SKIP_FAR_BLOCKS` (off: the
+  matmul precision, equinox's ``EQX_ON_ERROR`` and `_pruning.SKIP_FAR_BLOCKS` (off: the
   unpruned contact that tests and benchmarks compare against).
 
 A later process with the same key deserializes the program (milliseconds) and compiles it,
@@ -174,8 +174,6 @@ def _key_text(name: str, signature: tuple) -> str | None:
         return None
     import equinox._errors
 
-    from . import _engine
-
     environment = {
         "format": _FORMAT,
         "python": sys.version,
@@ -186,7 +184,10 @@ def _key_text(name: str, signature: tuple) -> str | None:
         "rank_promotion": str(jax.config.jax_numpy_rank_promotion),
         "matmul_precision": str(jax.config.jax_default_matmul_precision),
         "eqx_on_error": str(getattr(equinox._errors, "EQX_ON_ERROR", "?")),
-        "skip_far_blocks": bool(_engine.SKIP_FAR_BLOCKS),
+        # read where it is set, without importing the core (this module stays light)
+        "skip_far_blocks": bool(
+            getattr(sys.modules.get(f"{__package__}._pruning"), "SKIP_FAR_BLOCKS", True)
+        ),
     }
     return repr((name, *signature, sorted(environment.items())))
 

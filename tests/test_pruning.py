@@ -1,8 +1,8 @@
 """Pruned ring-beam contact (issue 11): blocks out of reach are skipped, and nothing changes.
 
-`_engine.contact_blocks` splits a node-to-node set into blocks and `_near_blocks` skips the
+`_pruning.contact_blocks` splits a node-to-node set into blocks and `near_blocks` skips the
 blocks whose bounding boxes are at least the gap apart in every collision of the batch. These
-tests hold the pruned step to the unpruned one (`_engine.SKIP_FAR_BLOCKS` off: every block
+tests hold the pruned step to the unpruned one (`_pruning.SKIP_FAR_BLOCKS` off: every block
 evaluated, in the same blocks and order): the block test never skips a pair within reach, and
 a sweep, a single run and a forward-mode derivative come out the same bit for bit. (Against
 the former one-block formulation the sums are grouped differently: rounding-level forces, and
@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import msfd_jax as m
-from msfd_jax import _engine, _sweep
+from msfd_jax import _engine, _pruning, _sweep
 
 
 @pytest.fixture
@@ -31,18 +31,19 @@ def dense():
 
     def use(flag: bool):
         jax.clear_caches()
-        _engine.SKIP_FAR_BLOCKS = not flag
+        _pruning.SKIP_FAR_BLOCKS = not flag
 
     yield use
     use(False)
 
 
 def test_block_shapes():
-    assert _engine.contact_blocks(16, 21, 1) == (16, 21)  # one block, skipped while apart
-    assert _engine.contact_blocks(16, 21, 32) == (4, 7)
-    assert _engine.contact_blocks(61, 81, 32) == (16, 17)
-    assert _engine.contact_blocks(3, 4, 32) == (3, 4)  # never larger than the set
-    assert _engine.contact_blocks(31, 41, 16) == (8, 9)
+    assert _pruning.contact_blocks(16, 21, 1) == (16, 21)  # one block, skipped while apart
+    assert _pruning.contact_blocks(16, 21, 32) == (4, 7)
+    assert _pruning.contact_blocks(61, 81, 32) == (16, 17)
+    assert _pruning.contact_blocks(61, 81, 1) == (16, 17)  # a large set: blocks even for one
+    assert _pruning.contact_blocks(3, 4, 32) == (3, 4)  # never larger than the set
+    assert _pruning.contact_blocks(31, 41, 16) == (8, 9)
 
 
 @pytest.mark.parametrize("seed", range(3))
@@ -61,13 +62,13 @@ def test_no_block_with_a_pair_in_reach_is_skipped(seed):
     within = dist < 0.15
     assert within.any() and not within.all()
     skipped = 0
-    for (i0, i1), (j0, j1), near in _engine._near_blocks(xa, xb, gap, (4, 5)):
+    for (i0, i1), (j0, j1), near in _pruning.near_blocks(xa, xb, gap, (4, 5)):
         if within[i0:i1, j0:j1].any():
             assert bool(near)
         skipped += not bool(near)
     assert skipped > 0  # the test can fail both ways
     xa[0, 0, 3] = np.nan
-    nearness = [bool(n) for (i0, _), _, n in _engine._near_blocks(xa, xb, gap, (4, 5)) if i0 == 0]
+    nearness = [bool(n) for (i0, _), _, n in _pruning.near_blocks(xa, xb, gap, (4, 5)) if i0 == 0]
     assert all(nearness)
 
 
@@ -77,10 +78,10 @@ def test_a_pair_exactly_at_the_gap_is_not_skipped():
     xa = np.array([[0.0, 0.0]])[..., None]
     for d in (gap * (1 - 1e-15), gap, gap * (1 + 1e-12)):
         xb = np.array([[d, 0.0]])[..., None]
-        ((_, _, near),) = _engine._near_blocks(xa, xb, jnp.full(1, gap), (1, 1))
+        ((_, _, near),) = _pruning.near_blocks(xa, xb, jnp.full(1, gap), (1, 1))
         assert bool(near)
     xb = np.array([[gap * 1.01, 0.0]])[..., None]
-    ((_, _, near),) = _engine._near_blocks(xa, xb, jnp.full(1, gap), (1, 1))
+    ((_, _, near),) = _pruning.near_blocks(xa, xb, jnp.full(1, gap), (1, 1))
     assert not bool(near)
 
 
