@@ -35,7 +35,7 @@ def total(a):
 # same order (the unpruned reference the pruned contact equals bit for bit,
 # tests/test_pruning.py); read when a step is traced.
 SKIP_FAR_BLOCKS = True
-ONE_BLOCK_PAIRS = 400  # a batch of one keeps a set of at most this many pairs whole
+ONE_BLOCK_PAIRS = 2000  # a batch of one keeps a set of at most this many pairs whole
 _REACH_MARGIN = 1.0 + 1e-9  # on the gap: covers the rounding of the pair distances
 
 
@@ -44,7 +44,7 @@ def contact_blocks(n_a: int, n_b: int, batch: int) -> tuple[int, int]:
 
     Blocks out of reach in every collision of the batch are skipped (`near_blocks`). The
     shapes are the fastest measured on XLA:CPU (`python benchmarks/contact_blocks.py`,
-    benchmarks/results/contact_blocks.md): a batch of one on a small set (the paper's mesh)
+    benchmarks/results/contact_blocks.md): a batch of one on a set of up to 2000 pairs
     evaluates it as one block (skipped while ring and beam are apart); otherwise blocks of
     about a quarter of the ring's nodes by a fifth of the beam's (4 x 7 on the paper's
     16 x 21 mesh, 16 x 17 on four times as many segments).

@@ -44,6 +44,7 @@ def test_block_shapes():
     assert _pruning.contact_blocks(61, 81, 1) == (16, 17)  # a large set: blocks even for one
     assert _pruning.contact_blocks(3, 4, 32) == (3, 4)  # never larger than the set
     assert _pruning.contact_blocks(31, 41, 16) == (8, 9)
+    assert _pruning.contact_blocks(31, 41, 1) == (31, 41)  # one block pays up to 2000 pairs
 
 
 @pytest.mark.parametrize("seed", range(3))
