@@ -213,17 +213,10 @@ def _approach(p, x, gap):
     return pair_geometry(xa, x[p.b : p.b + p.n_b], gap)
 
 
-def _contact_forces(p, f, geometry, n_nodes):
-    """Nodal forces (N, 2, B) of one contact set's pair forces f."""
-    if geometry is None:  # node to plane: the plane pushes along -y
-        fa = jnp.stack([jnp.zeros_like(f), -f], axis=1)
-        return _pad(fa, p.a, n_nodes - p.a - p.n_a)
-    dx, dy, dist, apart = geometry
-    c = jnp.where(apart, f / jnp.where(apart, dist, 1.0), 0.0)
-    fx, fy = c * dx, c * dy
-    fa = jnp.stack([jnp.sum(fx, axis=1), jnp.sum(fy, axis=1)], axis=1)
-    fb = -jnp.stack([jnp.sum(fx, axis=0), jnp.sum(fy, axis=0)], axis=1)
-    return _pad(fa, p.a, n_nodes - p.a - p.n_a) + _pad(fb, p.b, n_nodes - p.b - p.n_b)
+def _plane_forces(p, f, n_nodes):
+    """Nodal forces (N, 2, B) of a node-to-plane set's forces f: the plane pushes along -y."""
+    fa = jnp.stack([jnp.zeros_like(f), -f], axis=1)
+    return _pad(fa, p.a, n_nodes - p.a - p.n_a)
 
 
 def respond(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> Response:
@@ -263,9 +256,9 @@ def respond(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> Response
             pair_force.append(total_force)
             dissipated.append(dc)
             continue
-        delta, geometry = _approach(p, x, gap)
+        delta, _ = _approach(p, x, gap)  # a node-to-plane set (node-to-node ones: above)
         f, ps1, dc = contact_spring(delta, ps, k, fy, _contact_width(flat, delta.ndim - 1))
-        force = force + _contact_forces(p, f, geometry, n_nodes)
+        force = force + _plane_forces(p, f, n_nodes)
         new_set.append(ps1)
         pair_force.append(_total(f))
         dissipated.append(_total(dc))
