@@ -50,14 +50,23 @@ def substep_loop(steps: int, h, tolerance):
 
 def interleaved_best(programs: dict, rounds: int) -> dict:
     """Best wall time of each ``(f, *args)`` in `programs`, timed in turn round after round
-    (so a noisy neighbour weighs on all alike); each is run once first (compilation)."""
+    (so a noisy neighbour weighs on all alike); each is run once first (compilation).
+
+    Each round starts one program further along (round r times them from the r-th on). In a
+    fixed order the program timed first in every round, right after programs of another
+    working set, came out 12-15 % slower than equal programs timed after it (B = 1 substep
+    loops timed after B = 32 ones: whichever variant came first, 7.97-8.27 against 6.84-7.23
+    µs per step; ad hoc runs, not committed), so a table's first column was penalised."""
     import jax
 
     for f, *a in programs.values():
         jax.block_until_ready(f(*a))
     best = dict.fromkeys(programs, float("inf"))
-    for _ in range(rounds):
-        for key, (f, *a) in programs.items():
+    keys = list(programs)
+    for r in range(rounds):
+        shift = r % len(keys)
+        for key in keys[shift:] + keys[:shift]:
+            f, *a = programs[key]
             tick = time.perf_counter()
             jax.block_until_ready(f(*a))
             best[key] = min(best[key], time.perf_counter() - tick)
