@@ -34,6 +34,55 @@ def batch_params(b: int, thickness=(0.5, 4.0)):
     })  # fmt: skip
 
 
+def scaled_mesh(factor: int):
+    """The paper's mesh with every segment count times `factor`."""
+    import msfd_jax as m
+
+    base = m.Mesh()
+    return m.Mesh(
+        ring_segments=base.ring_segments * factor,
+        beam_contact_segments=base.beam_contact_segments * factor,
+        beam_outer_segments=base.beam_outer_segments * factor,
+    )
+
+
+def showcase_steps(mesh) -> tuple[float, int]:
+    """The showcase collision's step and step count on `mesh` (t_max = 10)."""
+    import msfd_jax as m
+
+    show = m.run(m.CollisionParams(), mesh, m.Settings(t_max=10.0))
+    return float(show.solution.dt), int(show.solution.steps)
+
+
+def half_way(mesh, b: int, dt: float, steps: int):
+    """B showcase-like collisions (`batch_params` with h_b/h_r 2-3) on `mesh` in the sweep's
+    slots, advanced by `steps` // 2 substeps of `dt` (contact engaged): (flat, clock, y, h)."""
+    import dataclasses
+
+    import jax.numpy as jnp
+
+    from msfd_jax import _queue, _sweep
+
+    settings = dataclasses.replace(_sweep.SWEEP_SETTINGS, t_max=10.0)
+    p = batch_params(b, (2.0, 3.0))
+    smoothing = _queue.with_flags((0.0, 0.0))
+    flat, clock, y = _queue._start(p, jnp.full(b, dt / 0.7), mesh, smoothing, settings, 1e7)
+    h = jnp.full(b, dt)
+    return flat, clock, substep_loop(steps // 2, h, clock.tolerance)(flat, y), h
+
+
+def write_result(name: str, lines: list[str]) -> str:
+    """Print the report and write it to benchmarks/results/`name`."""
+    from pathlib import Path
+
+    text = "\n".join(lines) + "\n"
+    print(text)
+    results = Path(__file__).resolve().parent / "results"
+    results.mkdir(exist_ok=True)
+    (results / name).write_text(text)
+    return text
+
+
 def substep_loop(steps: int, h, tolerance):
     """A compiled ``fori_loop`` of `steps` Verlet substeps of length h (B,): f(flat, y)."""
     import equinox as eqx
@@ -53,10 +102,9 @@ def interleaved_best(programs: dict, rounds: int) -> dict:
     (so a noisy neighbour weighs on all alike); each is run once first (compilation).
 
     Each round starts one program further along (round r times them from the r-th on). In a
-    fixed order the program timed first in every round, right after programs of another
-    working set, came out 12-15 % slower than equal programs timed after it (B = 1 substep
-    loops timed after B = 32 ones: whichever variant came first, 7.97-8.27 against 6.84-7.23
-    µs per step; ad hoc runs, not committed), so a table's first column was penalised."""
+    fixed order the program timed first in every round runs right after programs of another
+    working set, and in ad hoc runs it came out slower than variants of equal cost timed
+    after it, so a table's first column was penalised."""
     import jax
 
     for f, *a in programs.values():

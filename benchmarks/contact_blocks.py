@@ -18,7 +18,6 @@ Each variant's end state is also compared with the chosen one's (max |x| differe
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import datetime
 import os
 import sys
@@ -40,10 +39,8 @@ def main() -> None:
     import jax
     import jax.numpy as jnp
 
-    import msfd_jax as m
-    from msfd_jax import _engine, _pruning, _queue, _sweep
+    from msfd_jax import _engine, _pruning
 
-    settings = dataclasses.replace(_sweep.SWEEP_SETTINGS, t_max=10.0)
     chosen = _engine.contact_blocks
     variants = {
         "chosen blocks, far ones skipped": (chosen, True),
@@ -57,15 +54,10 @@ def main() -> None:
 
     programs, rows, checks = {}, [], []
     for f in args.factors:
-        mesh = m.Mesh(ring_segments=15 * f, beam_contact_segments=20 * f, beam_outer_segments=5 * f)
-        show = m.run(m.CollisionParams(), mesh, m.Settings(t_max=10.0))
-        dt, steps = float(show.solution.dt), int(show.solution.steps)
+        mesh = _bench.scaled_mesh(f)
+        dt, steps = _bench.showcase_steps(mesh)
         for b in args.slots:
-            p = _bench.batch_params(b, (2.0, 3.0))
-            smoothing = _queue.with_flags((0.0, 0.0))
-            flat, clock, y = _queue._start(p, jnp.full(b, dt / 0.7), mesh, smoothing, settings, 1e7)
-            h = jnp.full(b, dt)
-            y = _bench.substep_loop(steps // 2, h, clock.tolerance)(flat, y)  # contact engaged
+            flat, clock, y, h = _bench.half_way(mesh, b, dt, steps)  # contact engaged
             pair = flat.pairs[0]
             blocks = chosen(pair.n_a, pair.n_b, b)
             rows.append((f, b, flat.n_nodes, pair.n_a * pair.n_b, blocks))

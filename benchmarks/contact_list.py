@@ -28,14 +28,11 @@ B = 32, paper mesh x1 and x4, the engine's block shape. The end states are compa
 
 from __future__ import annotations
 
-import dataclasses
 import datetime
 import os
-from pathlib import Path
 
 import _bench
 
-RESULTS = Path(__file__).resolve().parent / "results"
 B = 32
 STEPS = 400
 FAR = 1.0e3  # padding nodes' offset: every padded pair is out of reach
@@ -147,21 +144,10 @@ def case(factor: int) -> dict:
     import jax.numpy as jnp
     import numpy as np
 
-    import msfd_jax as m
-    from msfd_jax import _pruning, _queue, _sweep
+    from msfd_jax import _pruning
 
-    settings = dataclasses.replace(_sweep.SWEEP_SETTINGS, t_max=10.0)
-    mesh = m.Mesh(
-        ring_segments=15 * factor,
-        beam_contact_segments=20 * factor,
-        beam_outer_segments=5 * factor,
-    )
-    show = m.run(m.CollisionParams(), mesh, m.Settings(t_max=10.0))
-    dt, steps = float(show.solution.dt), int(show.solution.steps)
-    p = _bench.batch_params(B, (2.0, 3.0))
-    smoothing = _queue.with_flags((0.0, 0.0))
-    flat, clock, y = _queue._start(p, jnp.full(B, dt / 0.7), mesh, smoothing, settings, 1e7)
-    y = _bench.substep_loop(steps // 2, jnp.full(B, dt), clock.tolerance)(flat, y)
+    mesh = _bench.scaled_mesh(factor)
+    flat, clock, y, _ = _bench.half_way(mesh, B, *_bench.showcase_steps(mesh))
     pair = flat.pairs[0]
     blocks = _pruning.contact_blocks(pair.n_a, pair.n_b, B)
     gap, k, fy, ps = flat.gap[0], flat.stiffness[0], flat.yield_force[0], y.permanent_set[0]
@@ -295,10 +281,7 @@ def main() -> None:
         "cost in benchmarks/results/profile_contact.md is not the set's traffic but the "
         "conditionals themselves.",
     ]
-    text = "\n".join(lines) + "\n"
-    print(text)
-    RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "contact_list.md").write_text(text)
+    _bench.write_result("contact_list.md", lines)
 
 
 if __name__ == "__main__":

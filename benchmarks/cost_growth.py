@@ -19,7 +19,6 @@ Re-executes itself under ``taskset -c 0`` when available (MSFD_BENCH_CORE picks 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import datetime
 import os
 import sys
@@ -39,33 +38,17 @@ def main() -> None:
     args = parser.parse_args()
     _bench.pin()
     import jax
-    import jax.numpy as jnp
-
-    import msfd_jax as m
-    from msfd_jax import _queue, _sweep
 
     b = args.slots
-    base = m.Mesh()
-    settings = dataclasses.replace(_sweep.SWEEP_SETTINGS, t_max=10.0)
     rows, programs = [], {}
     for f in args.factors:
-        mesh = m.Mesh(
-            ring_segments=base.ring_segments * f,
-            beam_contact_segments=base.beam_contact_segments * f,
-            beam_outer_segments=base.beam_outer_segments * f,
-        )
-        showcase = m.run(m.CollisionParams(), mesh, m.Settings(t_max=10.0))
-        dt = float(showcase.solution.dt)
-        smoothing = _queue.with_flags((0.0, 0.0))
-        p = _bench.batch_params(b, (2.0, 3.0))
-        flat, clock, y = _queue._start(p, jnp.full(b, dt / 0.7), mesh, smoothing, settings, 10**7)
+        mesh = _bench.scaled_mesh(f)
+        dt, steps = _bench.showcase_steps(mesh)
         # timed from half-way through the collision: the pruned contact's cost depends on
         # the state (at the start the ring touches the beam at one node)
-        steps = int(showcase.solution.steps)
-        y = _bench.substep_loop(steps // 2, jnp.full(b, dt), clock.tolerance)(flat, y)
-        programs[f] = (_bench.substep_loop(args.steps, jnp.full(b, dt), clock.tolerance), flat, y)
+        flat, clock, y, h = _bench.half_way(mesh, b, dt, steps)
+        programs[f] = (_bench.substep_loop(args.steps, h, clock.tolerance), flat, y)
         pairs = sum(q.n_a * q.n_b for q in flat.pairs if hasattr(q, "n_b"))
-        steps = int(showcase.solution.steps)
         rows.append(dict(f=f, nodes=flat.n_nodes, pairs=pairs, steps=steps))
         print(f"mesh x{f}: {flat.n_nodes} nodes, {pairs} contact pairs, showcase {steps} steps")
     best = _bench.interleaved_best(programs, args.rounds)

@@ -14,7 +14,6 @@ matches). The profiler inflates every thunk; the unprofiled cost is printed besi
 from __future__ import annotations
 
 import collections
-import dataclasses
 import datetime
 import glob
 import gzip
@@ -22,35 +21,20 @@ import json
 import os
 import tempfile
 import time
-from pathlib import Path
 
 import _bench
 
-RESULTS = Path(__file__).resolve().parent / "results"
 B = 32
 STEPS = 50
 
 
 def profile(factor: int) -> dict:
     import jax
-    import jax.numpy as jnp
 
-    import msfd_jax as m
-    from msfd_jax import _pruning, _queue, _sweep
+    from msfd_jax import _pruning
 
-    settings = dataclasses.replace(_sweep.SWEEP_SETTINGS, t_max=10.0)
-    mesh = m.Mesh(
-        ring_segments=15 * factor,
-        beam_contact_segments=20 * factor,
-        beam_outer_segments=5 * factor,
-    )
-    show = m.run(m.CollisionParams(), mesh, m.Settings(t_max=10.0))
-    dt, steps = float(show.solution.dt), int(show.solution.steps)
-    p = _bench.batch_params(B, (2.0, 3.0))
-    smoothing = _queue.with_flags((0.0, 0.0))
-    flat, clock, y = _queue._start(p, jnp.full(B, dt / 0.7), mesh, smoothing, settings, 1e7)
-    h = jnp.full(B, dt)
-    y = _bench.substep_loop(steps // 2, h, clock.tolerance)(flat, y)
+    mesh = _bench.scaled_mesh(factor)
+    flat, clock, y, h = _bench.half_way(mesh, B, *_bench.showcase_steps(mesh))
     pair = flat.pairs[0]
     blocks = _pruning.contact_blocks(pair.n_a, pair.n_b, B)
     xa, xb = y.x[pair.a : pair.a + pair.n_a], y.x[pair.b : pair.b + pair.n_b]
@@ -123,10 +107,7 @@ def main() -> None:
         "4-6 % at x4 (benchmarks/results/contact_list.md). What remains is the conditionals' "
         "own cost on XLA:CPU.",
     ]
-    text = "\n".join(lines) + "\n"
-    print(text)
-    RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "profile_contact.md").write_text(text)
+    _bench.write_result("profile_contact.md", lines)
 
 
 if __name__ == "__main__":

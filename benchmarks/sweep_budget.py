@@ -24,12 +24,10 @@ import os
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import _bench
 import numpy as np
 
-RESULTS = Path(__file__).resolve().parent / "results"
 THICKNESS = [float(v) for v in np.linspace(0.25, 5.0, 64)]  # the CLI's 0.25:5:64
 GRID = dict(
     thickness_ratio=THICKNESS, axial_constraint=[0.0, 1.0],
@@ -146,10 +144,7 @@ def main() -> None:
         "difference between the first line and the segment) is its hand-over between "
         "segments (reports, refills, rows) and collisions in phases dearer than this sample's.",
     ]
-    text = "\n".join(lines) + "\n"
-    print(text)
-    RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "sweep_budget.md").write_text(text)
+    _bench.write_result("sweep_budget.md", lines)
 
 
 if __name__ == "__main__":

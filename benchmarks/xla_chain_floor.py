@@ -26,11 +26,9 @@ from __future__ import annotations
 
 import datetime
 import os
-from pathlib import Path
 
 import _bench
 
-RESULTS = Path(__file__).resolve().parent / "results"
 NODES = 42
 STEPS = 1000
 H = 2e-4
@@ -263,10 +261,7 @@ def main() -> None:
         "budget; in the core it costs about as much again as the chain itself "
         "(benchmarks/results/xla_floor.md, contact_blocks.md).",
     ]
-    text = "\n".join(lines) + "\n"
-    print(text)
-    RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "xla_chain_floor.md").write_text(text)
+    _bench.write_result("xla_chain_floor.md", lines)
 
 
 if __name__ == "__main__":

@@ -411,8 +411,8 @@ def _solve_collisions(
 def _layout_scene(mesh: Mesh):
     # any scene of this mesh gives the chain names and contact kinds `diagnose` reads; unchecked,
     # since the defaults need not be valid with every mesh (collapse contacts' check). Built
-    # once per mesh: it took ~1 ms of eager dispatch, paid by every group of rows a sweep
-    # reported (under the queue's lock)
+    # once per mesh: building it is eager dispatch, which every group of rows a sweep
+    # reported paid again (under the queue's lock)
     return _ring_on_beam(CollisionParams().as_arrays(), mesh, jnp.zeros(()), jnp.zeros(()))
 
 
