@@ -27,7 +27,15 @@ from jaxtyping import Array, Float
 from ._collapse_forces import collapse_energy, collapse_pair_force, collapse_response
 from ._flat import COLLAPSE_LAYOUTS, FlatScene, PairLayout
 from ._laws import contact_energy, contact_spring, elastic_plastic
-from ._pruning import blocked_energy, blocked_pairs, contact_blocks, pair_geometry
+from ._pruning import (
+    blocked_energy,
+    blocked_pairs,
+    contact_blocks,
+    listed_blocks,
+    listed_energy,
+    listed_pairs,
+    pair_geometry,
+)
 from ._pruning import pad as _pad
 from ._pruning import total as _total
 from ._results import RESULTS
@@ -219,11 +227,13 @@ def _plane_forces(p, f, n_nodes):
     return _pad(fa, p.a, n_nodes - p.a - p.n_a)
 
 
-def respond(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> Response:
+def respond(flat: FlatScene, x, rotation_p, strain_p, permanent_set, listed=False) -> Response:
     """Return-map every spring at `x` and assemble the nodal forces in closed form (Eq. 10).
 
     The elastic energy is not computed here (the step does not need it): `elastic_energy`
-    evaluates it from the state once per diffrax step.
+    evaluates it from the state once per diffrax step. `listed` (static): node-to-node sets
+    visit their near blocks in a while loop (`_pruning.listed_pairs`, forward mode only)
+    instead of a conditional per block (``Settings.contact_loop``).
     """
     forces, rot, strain, bend, axial = [], [], [], [], []
     for c in flat.chains:
@@ -247,10 +257,9 @@ def respond(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> Response
             dissipated.append(dc)
             continue
         if isinstance(p, PairLayout):
-            blocks = contact_blocks(p.n_a, p.n_b, x.shape[-1])
-            fc, ps1, total_force, dc = blocked_pairs(
-                p, x, gap, k, fy, ps, blocks, _contact_width(flat, 2)
-            )
+            pairs = listed_pairs if listed else blocked_pairs
+            blocks = (listed_blocks if listed else contact_blocks)(p.n_a, p.n_b, x.shape[-1])
+            fc, ps1, total_force, dc = pairs(p, x, gap, k, fy, ps, blocks, _contact_width(flat, 2))
             force = force + fc
             new_set.append(ps1)
             pair_force.append(total_force)
@@ -275,7 +284,9 @@ def respond(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> Response
     )
 
 
-def elastic_energy(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> Float[Array, " B"]:
+def elastic_energy(
+    flat: FlatScene, x, rotation_p, strain_p, permanent_set, listed=False
+) -> Float[Array, " B"]:
     """Elastic energy stored at `x` with the plastic parts after the return mapping.
 
     The mapped force is k (q - q_p) for the sharp and the smoothed law alike, so the energy
@@ -300,8 +311,9 @@ def elastic_energy(flat: FlatScene, x, rotation_p, strain_p, permanent_set) -> F
             energy = energy + collapse_energy(flat, p, x, gap, k, ps)
             continue
         if isinstance(p, PairLayout):
-            blocks = contact_blocks(p.n_a, p.n_b, x.shape[-1])
-            energy = energy + blocked_energy(p, x, gap, k, ps, blocks, _contact_width(flat, 2))
+            stored = listed_energy if listed else blocked_energy
+            blocks = (listed_blocks if listed else contact_blocks)(p.n_a, p.n_b, x.shape[-1])
+            energy = energy + stored(p, x, gap, k, ps, blocks, _contact_width(flat, 2))
             continue
         delta, _ = _approach(p, x, gap)
         pairs = tuple(range(delta.ndim - 1))
@@ -363,15 +375,16 @@ def initial_state(flat: FlatScene) -> BatchState:
     )  # fmt: skip
 
 
-def verlet_substep(flat: FlatScene, s: BatchState, t1, h, tolerance) -> BatchState:
+def verlet_substep(flat: FlatScene, s: BatchState, t1, h, tolerance, listed=False) -> BatchState:
     """One velocity-Verlet step of length h (B,) with return mapping at the new positions.
 
     The state's elastic energy is left as it was: `advance` updates it once per diffrax step
-    (it enters only the energy balance and the stopping rule, checked there)."""
+    (it enters only the energy balance and the stopping rule, checked there). `listed`: see
+    `respond`."""
     hb = h[None, None]  # (1, 1, B) against (N, 2, B)
     v_half = s.v + 0.5 * hb * s.a
     x = s.x + hb * v_half
-    r = respond(flat, x, s.plastic_rotation, s.plastic_strain, s.permanent_set)
+    r = respond(flat, x, s.plastic_rotation, s.plastic_strain, s.permanent_set, listed)
     a1 = _accelerations(flat, r.forces)
     v1 = v_half + 0.5 * hb * a1
     reaction = _reaction(flat, r.forces)
@@ -419,12 +432,14 @@ def advance(flat: FlatScene, clock: Clock, s: BatchState, substeps: int, rule) -
     t_next = jnp.where(capped, clock.t_max, t_next)
     t0 = s.t
     h = (t_next - t0) / substeps
+    listed = rule.contact_loop == "listed"
 
     def body(i, y):
-        return verlet_substep(flat, y, t0 + (i + 1) * h, h, clock.tolerance)
+        return verlet_substep(flat, y, t0 + (i + 1) * h, h, clock.tolerance, listed)
 
     y = body(0, s) if substeps == 1 else jax.lax.fori_loop(0, substeps, body, s)
-    elastic = elastic_energy(flat, y.x, y.plastic_rotation, y.plastic_strain, y.permanent_set)
+    sets = y.permanent_set
+    elastic = elastic_energy(flat, y.x, y.plastic_rotation, y.plastic_strain, sets, listed)
     y = eqx.tree_at(lambda q: q.elastic, y, elastic)
     err = energy_error(flat, y, clock.k0)
     non_finite = ~jnp.isfinite(err)

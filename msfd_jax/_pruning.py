@@ -1,17 +1,28 @@
 """Pruned node-to-node contact (issue 11): a set evaluated in blocks, far blocks skipped.
 
-Each block of ring nodes x beam nodes is a ``lax.cond``: skipped when its two bounding boxes
-are at least the gap apart in every collision of the batch (`near_blocks`), which is exact
-(such pairs carry no force, keep their permanent sets, dissipate and store nothing). The
-block shapes are `contact_blocks`'s, measured in benchmarks/results/contact_blocks.md; with
-`SKIP_FAR_BLOCKS` off every block is evaluated, in the same blocks and order (the reference
-tests/test_pruning.py holds the pruned step to, bit for bit).
+A block of ring nodes x beam nodes is skipped when its two bounding boxes are at least the gap
+apart in every collision of the batch (`near_blocks`), which is exact (such pairs carry no
+force, keep their permanent sets, dissipate and store nothing). Two ways to skip, chosen by
+``Settings.contact_loop`` (static):
+
+- ``"blocks"`` (`blocked_pairs`): each block is a ``lax.cond``; differentiable in forward and
+  reverse mode. A skipped block still costs its conditional and passes its part of the
+  permanent set through (benchmarks/results/profile_contact.md).
+- ``"listed"`` (`listed_pairs`): the near blocks are listed and a ``lax.while_loop`` visits
+  only them, updating the permanent set and the forces in place; a far block costs nothing
+  but its bounding-box test. Forward mode (``jax.jvp``) works through it, reverse mode does
+  not (a while loop of dynamic length): the sweeps use it (benchmarks/results/contact_loop.md).
+
+For the same block shape the two give the same numbers bit for bit (tests/test_pruning.py),
+and with `SKIP_FAR_BLOCKS` off every block is evaluated, in the same blocks and order (the
+reference the pruned step equals, bit for bit).
 """
 
 from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ._flat import PairLayout
 from ._laws import contact_energy, contact_spring
@@ -52,6 +63,19 @@ def contact_blocks(n_a: int, n_b: int, batch: int) -> tuple[int, int]:
     if batch == 1 and n_a * n_b <= ONE_BLOCK_PAIRS:
         return n_a, n_b
     return min(n_a, max(4, -(-n_a // 4))), min(n_b, max(7, -(-n_b // 5)))
+
+
+LISTED_BLOCK = (2, 7)  # block shape of the listed loop (benchmarks/results/contact_loop.md)
+
+
+def listed_blocks(n_a: int, n_b: int, batch: int) -> tuple[int, int]:
+    """The block shape of `listed_pairs`: a far block costs nothing there but its box test,
+    so blocks are small (2 ring nodes x 7 beam nodes, the fastest measured at 1x and 4x the
+    paper's mesh, `python benchmarks/contact_loop.py`); a batch of one keeps a set of up to
+    `ONE_BLOCK_PAIRS` pairs whole, as `contact_blocks` does."""
+    if batch == 1 and n_a * n_b <= ONE_BLOCK_PAIRS:
+        return n_a, n_b
+    return min(n_a, LISTED_BLOCK[0]), min(n_b, LISTED_BLOCK[1])
 
 
 def _box(xs):
@@ -156,3 +180,138 @@ def blocked_energy(p: PairLayout, x, gap, k, ps, blocks, width):
             near, stored, lambda *a: jnp.zeros(x.shape[-1:]), xa, xb, ps, k, gap
         )
     return energy
+
+
+def _grid(n: int, size: int):
+    """Blocks of `size` along n nodes: each block's nominal first node (the nodes it owns
+    start there) and its first node, the last block shifted back to end at n (it then
+    overlaps the one before, and the overlapped nodes are masked out of it)."""
+    nominal = np.arange(0, n, size)
+    return nominal, np.minimum(nominal, n - size)
+
+
+def _boxes(xs, starts, size):
+    """Bounding boxes (min x, max x, min y, max y), each (blocks, B), of the blocks of nodes
+    xs (n, 2, B) starting at `starts` (static)."""
+    n = xs.shape[0]
+    whole = len(starts) - int(n % size != 0)
+    parts = [jnp.reshape(xs[: whole * size], (whole, size, *xs.shape[1:]))]
+    if whole < len(starts):
+        parts.append(xs[n - size :][None])
+    blocks = jnp.concatenate(parts) if len(parts) > 1 else parts[0]
+    x, y = blocks[:, :, 0], blocks[:, :, 1]
+    return jnp.min(x, 1), jnp.max(x, 1), jnp.min(y, 1), jnp.max(y, 1)
+
+
+def near_list(xa, xb, gap, blocks):
+    """The near blocks of a node-to-node set as a list: (count, block numbers (rows x cols,
+    the near ones first in row-major order), row and column grids). `near_blocks`'s rule:
+    a block is far only when its boxes are at least the gap apart in every collision; a NaN
+    position makes blocks near; with `SKIP_FAR_BLOCKS` false every block is near."""
+    (bi, bj), n_a, n_b = blocks, xa.shape[0], xb.shape[0]
+    rows, cols = _grid(n_a, bi), _grid(n_b, bj)
+    ax0, ax1, ay0, ay1 = _boxes(xa, rows[1], bi)
+    bx0, bx1, by0, by1 = _boxes(xb, cols[1], bj)
+    gx = jnp.maximum(jnp.maximum(ax0[:, None] - bx1[None], bx0[None] - ax1[:, None]), 0.0)
+    gy = jnp.maximum(jnp.maximum(ay0[:, None] - by1[None], by0[None] - ay1[:, None]), 0.0)
+    reach = (gap * _REACH_MARGIN) ** 2
+    near = ~(gx * gx + gy * gy >= reach[None, None])  # (rows, cols, B)
+    if not SKIP_FAR_BLOCKS:
+        near = near | (reach >= 0.0)[None, None]
+    near = jnp.any(near, axis=-1).reshape(-1)
+    (order,) = jnp.nonzero(near, size=near.shape[0], fill_value=0)
+    return jnp.sum(near), order, rows, cols
+
+
+def _owned(start, nominal, size):
+    """(size,) true for the nodes of a block it owns (not those of the block before)."""
+    return start + jnp.arange(size) >= nominal
+
+
+def listed_pairs(p: PairLayout, x, gap, k, fy, ps, blocks, width):
+    """`blocked_pairs` with the near blocks listed (`near_list`) and visited by a while loop:
+    the same returns, equal bit for bit for the same `blocks` (the same per-block arithmetic;
+    the sums meet their blocks in the same order and a skipped block added exact zeros).
+
+    Each visit slices its block, evaluates it inside a ``lax.cond`` (always taken: the
+    conditional makes XLA:CPU materialise the slices, so that the in-place update of the
+    permanent set does not copy the whole set at every visit, measured) and writes the block
+    of the set and its forces back in place. Forward mode only (a dynamic trip count)."""
+    xa, xb = x[p.a : p.a + p.n_a], x[p.b : p.b + p.n_b]
+    batch = x.shape[-1:]
+    bi, bj = blocks
+    count, order, (nom_a, start_a), (nom_b, start_b) = near_list(xa, xb, gap, blocks)
+    cols = len(start_b)
+    mask_rows, mask_cols = p.n_a % bi != 0, p.n_b % bj != 0
+    nom_a, start_a, nom_b, start_b = map(jnp.asarray, (nom_a, start_a, nom_b, start_b))
+
+    def block(xa_s, xb_s, ps_s, k_s, fy_s, own_a, own_b):
+        delta, (dx, dy, dist, apart) = pair_geometry(xa_s, xb_s, gap)
+        f, ps1, dc = contact_spring(delta, ps_s, k_s, fy_s, width)
+        if mask_rows or mask_cols:  # the overlapped nodes of a shifted last block
+            own = own_a[:, None, None] & own_b[None, :, None]
+            f, ps1, dc = jnp.where(own, f, 0.0), jnp.where(own, ps1, ps_s), jnp.where(own, dc, 0.0)
+        c = jnp.where(apart, f / jnp.where(apart, dist, 1.0), 0.0)
+        fx, fy_ = c * dx, c * dy
+        f_a = jnp.stack([jnp.sum(fx, axis=1), jnp.sum(fy_, axis=1)], axis=1)
+        f_b = -jnp.stack([jnp.sum(fx, axis=0), jnp.sum(fy_, axis=0)], axis=1)
+        return f_a, f_b, ps1, total(f), total(dc)
+
+    def unused(xa_s, xb_s, ps_s, *_):
+        z = jnp.zeros(batch)
+        return jnp.zeros_like(xa_s), jnp.zeros_like(xb_s), ps_s, z, z
+
+    def visit(carry):
+        i, ps, fa, fb, f_sum, dissipated = carry
+        r, q = order[i] // cols, order[i] % cols
+        i0, j0 = start_a[r], start_b[q]
+        xa_s = jax.lax.dynamic_slice(xa, (i0, 0, 0), (bi, 2, *batch))
+        xb_s = jax.lax.dynamic_slice(xb, (j0, 0, 0), (bj, 2, *batch))
+        ps_s, k_s, fy_s = (
+            jax.lax.dynamic_slice(a, (i0, j0, 0), (bi, bj, *batch)) for a in (ps, k, fy)
+        )
+        own = _owned(i0, nom_a[r], bi), _owned(j0, nom_b[q], bj)
+        f_a, f_b, ps1, f_total, dc = jax.lax.cond(
+            i < count, block, unused, xa_s, xb_s, ps_s, k_s, fy_s, *own
+        )
+        ps = jax.lax.dynamic_update_slice(ps, ps1, (i0, j0, 0))
+        f_a = jax.lax.dynamic_slice(fa, (i0, 0, 0), f_a.shape) + f_a
+        f_b = jax.lax.dynamic_slice(fb, (j0, 0, 0), f_b.shape) + f_b
+        fa = jax.lax.dynamic_update_slice(fa, f_a, (i0, 0, 0))
+        fb = jax.lax.dynamic_update_slice(fb, f_b, (j0, 0, 0))
+        return i + 1, ps, fa, fb, f_sum + f_total, dissipated + dc
+
+    z = jnp.zeros(batch)
+    start = (jnp.zeros((), count.dtype), ps, jnp.zeros_like(xa), jnp.zeros_like(xb), z, z)
+    _, new_set, fa, fb, f_sum, dissipated = jax.lax.while_loop(lambda c: c[0] < count, visit, start)
+    n_nodes = x.shape[0]
+    force = pad(fa, p.a, n_nodes - p.a - p.n_a) + pad(fb, p.b, n_nodes - p.b - p.n_b)
+    return force, new_set, f_sum, dissipated
+
+
+def listed_energy(p: PairLayout, x, gap, k, ps, blocks, width):
+    """`blocked_energy` with the near blocks listed (`listed_pairs`): equal bit for bit."""
+    xa, xb = x[p.a : p.a + p.n_a], x[p.b : p.b + p.n_b]
+    batch = x.shape[-1:]
+    bi, bj = blocks
+    count, order, (nom_a, start_a), (nom_b, start_b) = near_list(xa, xb, gap, blocks)
+    cols = len(start_b)
+    masked = p.n_a % bi != 0 or p.n_b % bj != 0
+    nom_a, start_a, nom_b, start_b = map(jnp.asarray, (nom_a, start_a, nom_b, start_b))
+
+    def visit(carry):
+        i, energy = carry
+        r, q = order[i] // cols, order[i] % cols
+        i0, j0 = start_a[r], start_b[q]
+        xa_s = jax.lax.dynamic_slice(xa, (i0, 0, 0), (bi, 2, *batch))
+        xb_s = jax.lax.dynamic_slice(xb, (j0, 0, 0), (bj, 2, *batch))
+        ps_s, k_s = (jax.lax.dynamic_slice(a, (i0, j0, 0), (bi, bj, *batch)) for a in (ps, k))
+        delta, _ = pair_geometry(xa_s, xb_s, gap)
+        e = contact_energy(delta, ps_s, k_s, width)
+        if masked:
+            own = _owned(i0, nom_a[r], bi)[:, None, None] & _owned(j0, nom_b[q], bj)[None, :, None]
+            e = jnp.where(own, e, 0.0)
+        return i + 1, energy + jnp.sum(e, axis=(0, 1))
+
+    start = (jnp.zeros((), count.dtype), jnp.zeros(batch))
+    return jax.lax.while_loop(lambda c: c[0] < count, visit, start)[1]

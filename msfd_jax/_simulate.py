@@ -41,6 +41,15 @@ if TYPE_CHECKING:  # diffrax is imported where a solve is traced (`_simulate`, `
     import diffrax
 
 _critical_step = eqx.filter_jit(critical_step)
+CONTACT_LOOPS = ("blocks", "listed")  # Settings.contact_loop (msfd_jax._pruning)
+
+
+def undifferentiated(settings: "Settings") -> "Settings":
+    """`settings` for a solve that is never differentiated (`run`, `sweep`): the default
+    contact loop (None) becomes the listed one, the faster on batches."""
+    if settings.contact_loop is None:
+        return dataclasses.replace(settings, contact_loop="listed")
+    return settings
 
 
 class Settings(eqx.Module):
@@ -74,6 +83,13 @@ class Settings(eqx.Module):
     - `max_steps`: static bound on the number of diffrax steps (None: from t_max / dt).
     - `substeps`: Verlet steps per diffrax step (histories are interpolated linearly between
       diffrax steps, and the stopping rule is checked once per diffrax step).
+    - `contact_loop`: how the ring-beam contact skips its blocks out of reach (static;
+      `msfd_jax._pruning`): ``"blocks"`` a conditional per block, differentiable in forward
+      and reverse mode; ``"listed"`` a loop over the near blocks only, faster on batches
+      (benchmarks/results/contact_loop.md) but differentiable in forward mode (``jax.jvp``)
+      only. ``None`` (the default): ``"listed"`` in `run` and `sweep`, whose results are
+      never differentiated, ``"blocks"`` in `simulate`. Both give the same partition to
+      rounding (they group the contact's sums in blocks of different shapes).
     """
 
     safety: float = 0.7
@@ -89,6 +105,7 @@ class Settings(eqx.Module):
     energy_guard: float = 0.05
     max_steps: int | None = eqx.field(static=True, default=None)
     substeps: int = eqx.field(static=True, default=8)
+    contact_loop: str | None = eqx.field(static=True, default=None)
 
     def __check_init__(self):
         ranges = dict(
@@ -117,6 +134,11 @@ class Settings(eqx.Module):
         for t in self.shape_times:
             _check_value("shape_times", t, 0.0, 1.0e4, True, True)
             _check_static_number("shape_times", t)
+        if self.contact_loop is not None and self.contact_loop not in CONTACT_LOOPS:
+            raise ValueError(
+                f"contact_loop must be None or one of {', '.join(map(repr, CONTACT_LOOPS))}, "
+                f"got {_show(self.contact_loop)}"
+            )
         # upper bounds: beyond them a run allocates or loops for ever (they are static)
         _check_count("substeps", self.substeps, 1, 10_000)
         _check_count("history_points", self.history_points, 2, 1_000_000)

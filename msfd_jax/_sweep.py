@@ -38,7 +38,7 @@ from ._results import RESULTS
 from ._retry import RETRY_OUTPUTS, Attempts, assemble, solve_with_retries, with_retry_columns
 from ._scene import _ring_on_beam
 from ._shard import _critical_chunk, _run_chunk, _sharded_solver
-from ._simulate import Settings
+from ._simulate import Settings, undifferentiated
 from ._store import match_rows, open_store
 from ._table import SweepTable
 
@@ -437,7 +437,9 @@ def step_bound(dt_critical: np.ndarray, settings: Settings, caps=None) -> int:
 
 def _sweep_settings(settings: Settings) -> Settings:
     # shape times past the cap dropped as `simulate` does (it cannot under jit); numbers as
-    # arrays so that filter_jit traces them (a new t_max or safety compiles nothing new)
+    # arrays so that filter_jit traces them (a new t_max or safety compiles nothing new); a
+    # sweep is never differentiated: the default contact loop is the listed one
+    settings = undifferentiated(settings)
     if settings.t_max is not None:
         kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
         settings = dataclasses.replace(settings, shape_times=kept)
