@@ -83,15 +83,16 @@ def write_result(name: str, lines: list[str]) -> str:
     return text
 
 
-def substep_loop(steps: int, h, tolerance):
-    """A compiled ``fori_loop`` of `steps` Verlet substeps of length h (B,): f(flat, y)."""
+def substep_loop(steps: int, h, tolerance, listed: bool = False):
+    """A compiled ``fori_loop`` of `steps` Verlet substeps of length h (B,): f(flat, y);
+    `listed`: the contact's listed loop (``Settings.contact_loop``), else one per block."""
     import equinox as eqx
     import jax
 
     from msfd_jax import _engine
 
     def loop(flat, y):
-        body = lambda i, s: _engine.verlet_substep(flat, s, i * h, h, tolerance)  # noqa: E731
+        body = lambda i, s: _engine.verlet_substep(flat, s, i * h, h, tolerance, listed)  # noqa: E731
         return jax.lax.fori_loop(0, steps, body, y)
 
     return eqx.filter_jit(loop)

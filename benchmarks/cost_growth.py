@@ -9,7 +9,9 @@ cost per collision-step. Goal 6: it grows no faster than nodes x steps (contact 
 proportional to nodes). The contact is pruned (`_pruning.contact_blocks`: blocks out of reach
 skipped), so the substeps are timed from half-way through the collision, where the contact
 is engaged; before the pruning they were timed from the first touch and the dense contact
-(ring nodes x beam contact nodes pairs) grew as nodes^2.
+(ring nodes x beam contact nodes pairs) grew as nodes^2. Both contact loops
+(``Settings.contact_loop``) are timed: "blocks" (a conditional per block, `simulate`'s
+default) and "listed" (the near blocks only, the sweeps' default).
 
     python benchmarks/cost_growth.py           # writes benchmarks/results/cost_growth.md
 
@@ -47,16 +49,18 @@ def main() -> None:
         # timed from half-way through the collision: the pruned contact's cost depends on
         # the state (at the start the ring touches the beam at one node)
         flat, clock, y, h = _bench.half_way(mesh, b, dt, steps)
-        programs[f] = (_bench.substep_loop(args.steps, h, clock.tolerance), flat, y)
+        for listed in (False, True):
+            loop = _bench.substep_loop(args.steps, h, clock.tolerance, listed=listed)
+            programs[f, listed] = (loop, flat, y)
         pairs = sum(q.n_a * q.n_b for q in flat.pairs if hasattr(q, "n_b"))
         rows.append(dict(f=f, nodes=flat.n_nodes, pairs=pairs, steps=steps))
         print(f"mesh x{f}: {flat.n_nodes} nodes, {pairs} contact pairs, showcase {steps} steps")
     best = _bench.interleaved_best(programs, args.rounds)
     first = rows[0]
     for row in rows:
-        row["us_per_collision_step"] = best[row["f"]] / args.steps / b * 1e6
-        row["ms_per_collision"] = row["us_per_collision_step"] * row["steps"] * 1e-3
-    c0 = first["ms_per_collision"]
+        for listed in (False, True):
+            us = best[row["f"], listed] / args.steps / b * 1e6
+            row[listed] = (us, us * row["steps"] * 1e-3)
     date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     lines = [
         "# Cost growth with the mesh (issue 11, goal 6)",
@@ -67,19 +71,21 @@ def main() -> None:
         "from half-way through the collision; "
         "steps: the showcase collision's at the default step",
         "",
-        "| mesh | nodes | contact pairs | showcase steps | µs / collision-step "
+        "| mesh | nodes | contact pairs | showcase steps | contact loop | µs / collision-step "
         "| ms / collision | cost growth | nodes x steps growth | cost / (nodes x steps) |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "|---|---:|---:|---:|---|---:|---:|---:|---:|---:|",
     ]
-    for row in rows:
-        growth = row["ms_per_collision"] / c0
-        work = row["nodes"] * row["steps"] / (first["nodes"] * first["steps"])
-        lines.append(
-            f"| x{row['f']} | {row['nodes']} | {row['pairs']} | {row['steps']} | "
-            f"{row['us_per_collision_step']:.3f} | {row['ms_per_collision']:.1f} | "
-            f"{growth:.2f} | {work:.2f} | {growth / work:.2f} |"
-        )
-        print(lines[-1])
+    for listed in (False, True):
+        for row in rows:
+            us, ms = row[listed]
+            growth = ms / first[listed][1]
+            work = row["nodes"] * row["steps"] / (first["nodes"] * first["steps"])
+            lines.append(
+                f"| x{row['f']} | {row['nodes']} | {row['pairs']} | {row['steps']} | "
+                f"{'listed' if listed else 'blocks'} | {us:.3f} | {ms:.1f} | "
+                f"{growth:.2f} | {work:.2f} | {growth / work:.2f} |"
+            )
+            print(lines[-1])
     lines += [
         "",
         "Goal 6: the last column stays at about 1 (cost proportional to nodes x steps).",

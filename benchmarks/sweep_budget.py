@@ -67,7 +67,8 @@ def segment_costs(seed: int = 0) -> dict:
         fields[k] = jnp.asarray(chosen[:, i])
     p = CollisionParams(**fields)
     mesh = m.Mesh()
-    settings = dataclasses.replace(_sweep._sweep_settings(_sweep.SWEEP_SETTINGS), max_steps=1 << 20)
+    settings = _sweep._sweep_settings(_sweep.SWEEP_SETTINGS, mesh)
+    settings = dataclasses.replace(settings, max_steps=1 << 20)
     dt_crit, _, _ = _critical_chunk(p, mesh, (0.0, 0.0))
     smoothing = _queue.with_flags((0.0, 0.0))
     flat, clock, y = _queue._start(

@@ -261,16 +261,20 @@ def listed_pairs(p: PairLayout, x, gap, k, fy, ps, blocks, width):
         z = jnp.zeros(batch)
         return jnp.zeros_like(xa_s), jnp.zeros_like(xb_s), ps_s, z, z
 
+    # each listed block's first and nominal first nodes, looked up once (fewer scalar
+    # kernels per visit: a visit's fixed cost is what the listed loop pays per near block)
+    r, q = order // cols, order % cols
+    first_a, first_b, own_a, own_b = start_a[r], start_b[q], nom_a[r], nom_b[q]
+
     def visit(carry):
         i, ps, fa, fb, f_sum, dissipated = carry
-        r, q = order[i] // cols, order[i] % cols
-        i0, j0 = start_a[r], start_b[q]
+        i0, j0 = first_a[i], first_b[i]
         xa_s = jax.lax.dynamic_slice(xa, (i0, 0, 0), (bi, 2, *batch))
         xb_s = jax.lax.dynamic_slice(xb, (j0, 0, 0), (bj, 2, *batch))
         ps_s, k_s, fy_s = (
             jax.lax.dynamic_slice(a, (i0, j0, 0), (bi, bj, *batch)) for a in (ps, k, fy)
         )
-        own = _owned(i0, nom_a[r], bi), _owned(j0, nom_b[q], bj)
+        own = _owned(i0, own_a[i], bi), _owned(j0, own_b[i], bj)
         f_a, f_b, ps1, f_total, dc = jax.lax.cond(
             i < count, block, unused, xa_s, xb_s, ps_s, k_s, fy_s, *own
         )
@@ -299,17 +303,19 @@ def listed_energy(p: PairLayout, x, gap, k, ps, blocks, width):
     masked = p.n_a % bi != 0 or p.n_b % bj != 0
     nom_a, start_a, nom_b, start_b = map(jnp.asarray, (nom_a, start_a, nom_b, start_b))
 
+    r, q = order // cols, order % cols
+    first_a, first_b, own_a, own_b = start_a[r], start_b[q], nom_a[r], nom_b[q]
+
     def visit(carry):
         i, energy = carry
-        r, q = order[i] // cols, order[i] % cols
-        i0, j0 = start_a[r], start_b[q]
+        i0, j0 = first_a[i], first_b[i]
         xa_s = jax.lax.dynamic_slice(xa, (i0, 0, 0), (bi, 2, *batch))
         xb_s = jax.lax.dynamic_slice(xb, (j0, 0, 0), (bj, 2, *batch))
         ps_s, k_s = (jax.lax.dynamic_slice(a, (i0, j0, 0), (bi, bj, *batch)) for a in (ps, k))
         delta, _ = pair_geometry(xa_s, xb_s, gap)
         e = contact_energy(delta, ps_s, k_s, width)
         if masked:
-            own = _owned(i0, nom_a[r], bi)[:, None, None] & _owned(j0, nom_b[q], bj)[None, :, None]
+            own = _owned(i0, own_a[i], bi)[:, None, None] & _owned(j0, own_b[i], bj)[None, :, None]
             e = jnp.where(own, e, 0.0)
         return i + 1, energy + jnp.sum(e, axis=(0, 1))
 

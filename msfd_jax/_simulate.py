@@ -44,12 +44,22 @@ _critical_step = eqx.filter_jit(critical_step)
 CONTACT_LOOPS = ("blocks", "listed")  # Settings.contact_loop (msfd_jax._pruning)
 
 
-def undifferentiated(settings: "Settings") -> "Settings":
-    """`settings` for a solve that is never differentiated (`run`, `sweep`): the default
-    contact loop (None) becomes the listed one, the faster on batches."""
-    if settings.contact_loop is None:
-        return dataclasses.replace(settings, contact_loop="listed")
-    return settings
+# Contact pairs (ring nodes x beam contact nodes) from which a sweep lists the near blocks
+# (`Settings.contact_loop` None): on the paper's 16 x 21 a whole sweep ran 0.87x as fast
+# listed (benchmarks/results/sweep_loops.md), at twice the mesh (31 x 41) faster
+# (sweep_loops_x2.md), its segments 1.2-1.7x at 2x and 4x (contact_loop.md).
+LISTED_FROM_PAIRS = 1000
+
+
+def undifferentiated(settings: "Settings", mesh) -> "Settings":
+    """`settings` for a sweep of `mesh` (its results are never differentiated): the default
+    contact loop (None) becomes the listed one where the contact set has at least
+    `LISTED_FROM_PAIRS` pairs, the conditional per block below."""
+    if settings.contact_loop is not None:
+        return settings
+    pairs = (mesh.ring_segments + 1) * (mesh.beam_contact_segments + 1)
+    loop = "listed" if pairs >= LISTED_FROM_PAIRS else "blocks"
+    return dataclasses.replace(settings, contact_loop=loop)
 
 
 class Settings(eqx.Module):
@@ -87,9 +97,10 @@ class Settings(eqx.Module):
       `msfd_jax._pruning`): ``"blocks"`` a conditional per block, differentiable in forward
       and reverse mode; ``"listed"`` a loop over the near blocks only, faster on batches
       (benchmarks/results/contact_loop.md) but differentiable in forward mode (``jax.jvp``)
-      only. ``None`` (the default): ``"listed"`` in `run` and `sweep`, whose results are
-      never differentiated, ``"blocks"`` in `simulate`. Both give the same partition to
-      rounding (they group the contact's sums in blocks of different shapes).
+      only. ``None`` (the default): ``"blocks"``, except in a sweep (never differentiated)
+      of a mesh whose contact set has at least `LISTED_FROM_PAIRS` (1000) pairs, twice the
+      paper's mesh and finer, where ``"listed"`` is the faster. Both give the same partition
+      to rounding (they group the contact's sums in blocks of different shapes).
     """
 
     safety: float = 0.7

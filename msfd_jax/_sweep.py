@@ -333,7 +333,7 @@ def _solve_collisions(
     smoothing = _smoothing_arrays(contact_smoothing, yield_smoothing)
     chunk_size, devices = _chunking(chunk_size, shard)
     workers = _check_workers(workers) or default_workers()
-    settings = _sweep_settings(settings)
+    settings = _sweep_settings(settings, mesh)
     n = len(columns["thickness_ratio"])
     chunks = [range(s, min(s + chunk_size, n)) for s in range(0, n, chunk_size)]
     note = on_stage or (lambda text: None)
@@ -435,11 +435,11 @@ def step_bound(dt_critical: np.ndarray, settings: Settings, caps=None) -> int:
     return 2 ** max(8, math.ceil(math.log2(1.02 * steps + 16)))
 
 
-def _sweep_settings(settings: Settings) -> Settings:
+def _sweep_settings(settings: Settings, mesh: Mesh) -> Settings:
     # shape times past the cap dropped as `simulate` does (it cannot under jit); numbers as
     # arrays so that filter_jit traces them (a new t_max or safety compiles nothing new); a
-    # sweep is never differentiated: the default contact loop is the listed one
-    settings = undifferentiated(settings)
+    # sweep is never differentiated: the contact loop of the default is chosen by the mesh
+    settings = undifferentiated(settings, mesh)
     if settings.t_max is not None:
         kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
         settings = dataclasses.replace(settings, shape_times=kept)
