@@ -78,33 +78,51 @@ def listed_blocks(n_a: int, n_b: int, batch: int) -> tuple[int, int]:
     return min(n_a, LISTED_BLOCK[0]), min(n_b, LISTED_BLOCK[1])
 
 
-def _box(xs):
-    """Bounding box (min x, max x, min y, max y), each (B,), of nodes xs (n, 2, B)."""
-    return jnp.min(xs[:, 0], 0), jnp.max(xs[:, 0], 0), jnp.min(xs[:, 1], 0), jnp.max(xs[:, 1], 0)
+def _boxes(xs, size: int):
+    """Bounding boxes (min x, max x, min y, max y), each (blocks, B), of the consecutive
+    blocks of `size` nodes of xs (n, 2, B), the last one shorter where `size` does not
+    divide n: one reduction over every block at once."""
+    n = xs.shape[0]
+    whole = n // size
+    out = []
+    for a in (xs[:, 0], xs[:, 1]):
+        head = jnp.reshape(a[: whole * size], (whole, size, *a.shape[1:]))
+        low, high = [jnp.min(head, 1)], [jnp.max(head, 1)]
+        if whole * size < n:
+            low.append(jnp.min(a[whole * size :], 0)[None])
+            high.append(jnp.max(a[whole * size :], 0)[None])
+        out += [jnp.concatenate(low), jnp.concatenate(high)]
+    return out
+
+
+def near_matrix(xa, xb, gap, blocks):
+    """(rows, cols) booleans, one per block of a node-to-node set: false only when the
+    block's two bounding boxes are at least the gap apart in every collision of the batch.
+    Then every pair of the block is at distance >= gap, has approach delta <= 0 <= its
+    permanent set, and so carries no force, keeps its set, dissipates nothing and stores no
+    energy (sharp and smoothed laws alike: the ramp is 0 for s <= 0): leaving the block out
+    is exact. A NaN position makes every block near. With `SKIP_FAR_BLOCKS` false every
+    block is near. The boxes and gaps of all blocks are computed at once (a few kernels
+    rather than a few per block)."""
+    ax0, ax1, ay0, ay1 = _boxes(xa, blocks[0])
+    bx0, bx1, by0, by1 = _boxes(xb, blocks[1])
+    gx = jnp.maximum(jnp.maximum(ax0[:, None] - bx1[None], bx0[None] - ax1[:, None]), 0.0)
+    gy = jnp.maximum(jnp.maximum(ay0[:, None] - by1[None], by0[None] - ay1[:, None]), 0.0)
+    reach = (gap * _REACH_MARGIN) ** 2
+    near = ~(gx * gx + gy * gy >= reach[None, None])  # (rows, cols, B)
+    if not SKIP_FAR_BLOCKS:  # true, but not known to XLA: the branch stays a branch
+        near = near | (reach >= 0.0)[None, None]
+    return jnp.any(near, axis=-1)
 
 
 def near_blocks(xa, xb, gap, blocks):
-    """Yield (rows, columns, near) for the blocks of a node-to-node set: `near` (a scalar)
-    is false only when the block's two bounding boxes are at least the gap apart in every
-    collision of the batch. Then every pair of the block is at distance >= gap, has approach
-    delta <= 0 <= its permanent set, and so carries no force, keeps its set, dissipates
-    nothing and stores no energy (sharp and smoothed laws alike: the ramp is 0 for s <= 0):
-    leaving the block out is exact. A NaN position makes every block near. With
-    `SKIP_FAR_BLOCKS` false every block is near."""
+    """Yield (rows, columns, near) for the blocks of a node-to-node set, `near` a scalar
+    (`near_matrix`)."""
     bi, bj = blocks
-    rows = [(i, min(i + bi, xa.shape[0])) for i in range(0, xa.shape[0], bi)]
-    cols = [(j, min(j + bj, xb.shape[0])) for j in range(0, xb.shape[0], bj)]
-    boxes_b = [_box(xb[j0:j1]) for j0, j1 in cols]
-    reach = (gap * _REACH_MARGIN) ** 2
-    for i0, i1 in rows:
-        ax0, ax1, ay0, ay1 = _box(xa[i0:i1])
-        for (j0, j1), (bx0, bx1, by0, by1) in zip(cols, boxes_b, strict=True):
-            gx = jnp.maximum(jnp.maximum(ax0 - bx1, bx0 - ax1), 0.0)
-            gy = jnp.maximum(jnp.maximum(ay0 - by1, by0 - ay1), 0.0)
-            near = ~(gx * gx + gy * gy >= reach)
-            if not SKIP_FAR_BLOCKS:  # true, but not known to XLA: the branch stays a branch
-                near = near | (reach >= 0.0)
-            yield (i0, i1), (j0, j1), jnp.any(near)
+    near = near_matrix(xa, xb, gap, blocks)
+    for r, i0 in enumerate(range(0, xa.shape[0], bi)):
+        for q, j0 in enumerate(range(0, xb.shape[0], bj)):
+            yield (i0, min(i0 + bi, xa.shape[0])), (j0, min(j0 + bj, xb.shape[0])), near[r, q]
 
 
 def pair_geometry(xa, xb, gap):
@@ -190,37 +208,15 @@ def _grid(n: int, size: int):
     return nominal, np.minimum(nominal, n - size)
 
 
-def _boxes(xs, starts, size):
-    """Bounding boxes (min x, max x, min y, max y), each (blocks, B), of the blocks of nodes
-    xs (n, 2, B) starting at `starts` (static)."""
-    n = xs.shape[0]
-    whole = len(starts) - int(n % size != 0)
-    parts = [jnp.reshape(xs[: whole * size], (whole, size, *xs.shape[1:]))]
-    if whole < len(starts):
-        parts.append(xs[n - size :][None])
-    blocks = jnp.concatenate(parts) if len(parts) > 1 else parts[0]
-    x, y = blocks[:, :, 0], blocks[:, :, 1]
-    return jnp.min(x, 1), jnp.max(x, 1), jnp.min(y, 1), jnp.max(y, 1)
-
-
 def near_list(xa, xb, gap, blocks):
     """The near blocks of a node-to-node set as a list: (count, block numbers (rows x cols,
-    the near ones first in row-major order), row and column grids). `near_blocks`'s rule:
-    a block is far only when its boxes are at least the gap apart in every collision; a NaN
-    position makes blocks near; with `SKIP_FAR_BLOCKS` false every block is near."""
+    the near ones first in row-major order), row and column grids (`_grid`)). Whether a
+    block is near is `near_matrix`'s test of its nominal nodes: a shifted last block's
+    overlapped nodes belong to the block before, and are masked out of it."""
     (bi, bj), n_a, n_b = blocks, xa.shape[0], xb.shape[0]
-    rows, cols = _grid(n_a, bi), _grid(n_b, bj)
-    ax0, ax1, ay0, ay1 = _boxes(xa, rows[1], bi)
-    bx0, bx1, by0, by1 = _boxes(xb, cols[1], bj)
-    gx = jnp.maximum(jnp.maximum(ax0[:, None] - bx1[None], bx0[None] - ax1[:, None]), 0.0)
-    gy = jnp.maximum(jnp.maximum(ay0[:, None] - by1[None], by0[None] - ay1[:, None]), 0.0)
-    reach = (gap * _REACH_MARGIN) ** 2
-    near = ~(gx * gx + gy * gy >= reach[None, None])  # (rows, cols, B)
-    if not SKIP_FAR_BLOCKS:
-        near = near | (reach >= 0.0)[None, None]
-    near = jnp.any(near, axis=-1).reshape(-1)
+    near = near_matrix(xa, xb, gap, blocks).reshape(-1)
     (order,) = jnp.nonzero(near, size=near.shape[0], fill_value=0)
-    return jnp.sum(near), order, rows, cols
+    return jnp.sum(near), order, _grid(n_a, bi), _grid(n_b, bj)
 
 
 def _owned(start, nominal, size):
