@@ -71,7 +71,12 @@ def mesh_json(mesh: Mesh) -> dict[str, Any]:
 
 
 def settings_json(settings) -> dict[str, Any]:
-    return _fields(settings)
+    # contact_loop (issue 11) is recorded only when given: the default's records, and the
+    # sweeps' stores holding them, stay as they were
+    out = _fields(settings)
+    if out.get("contact_loop") is None:
+        out.pop("contact_loop", None)
+    return out
 
 
 def mesh_from_json(record: dict[str, Any]) -> Mesh:

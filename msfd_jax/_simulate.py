@@ -45,10 +45,11 @@ CONTACT_LOOPS = ("blocks", "listed")  # Settings.contact_loop (msfd_jax._pruning
 
 
 # Contact pairs (ring nodes x beam contact nodes) from which a sweep lists the near blocks
-# (`Settings.contact_loop` None): on the paper's 16 x 21 a whole sweep ran 0.87x as fast
-# listed (benchmarks/results/sweep_loops.md), at twice the mesh (31 x 41) faster
-# (sweep_loops_x2.md), its segments 1.2-1.7x at 2x and 4x (contact_loop.md).
-LISTED_FROM_PAIRS = 1000
+# (`Settings.contact_loop` None). Whole sweeps side by side (benchmarks/sweep_loops.py):
+# 0.87x as fast listed on the paper's 16 x 21 (sweep_loops.md), 0.91x at twice the mesh,
+# 31 x 41 (sweep_loops_x2.md: the tail's small batches favour the conditionals), faster at
+# four times, 61 x 81 (sweep_loops_x4.md); single segments: benchmarks/results/contact_loop.md.
+LISTED_FROM_PAIRS = 4000
 
 
 def undifferentiated(settings: "Settings", mesh) -> "Settings":
@@ -98,8 +99,8 @@ class Settings(eqx.Module):
       and reverse mode; ``"listed"`` a loop over the near blocks only, faster on batches
       (benchmarks/results/contact_loop.md) but differentiable in forward mode (``jax.jvp``)
       only. ``None`` (the default): ``"blocks"``, except in a sweep (never differentiated)
-      of a mesh whose contact set has at least `LISTED_FROM_PAIRS` (1000) pairs, twice the
-      paper's mesh and finer, where ``"listed"`` is the faster. Both give the same partition
+      of a mesh whose contact set has at least `LISTED_FROM_PAIRS` (4000) pairs, four times
+      the paper's mesh and finer, where ``"listed"`` is the faster. Both give the same partition
       to rounding (they group the contact's sums in blocks of different shapes).
     """
 
@@ -145,7 +146,8 @@ class Settings(eqx.Module):
         for t in self.shape_times:
             _check_value("shape_times", t, 0.0, 1.0e4, True, True)
             _check_static_number("shape_times", t)
-        if self.contact_loop is not None and self.contact_loop not in CONTACT_LOOPS:
+        loop = self.contact_loop
+        if loop is not None and not (isinstance(loop, str) and loop in CONTACT_LOOPS):
             raise ValueError(
                 f"contact_loop must be None or one of {', '.join(map(repr, CONTACT_LOOPS))}, "
                 f"got {_show(self.contact_loop)}"

@@ -194,6 +194,7 @@ SETTINGS_STATIC = {
     ),
     "max_steps": st.one_of(st.none(), COUNTS),
     "substeps": COUNTS,
+    "contact_loop": st.one_of(st.none(), st.sampled_from(["blocks", "listed", "dense"]), JUNK),
 }
 
 
@@ -212,7 +213,8 @@ def test_settings_are_accepted_or_refused_naming_the_field(values):
     if s is None:
         return
     # static fields key the compiled program: hashable; numbers single and finite
-    hash(tuple(getattr(s, f) for f in ("stop_when_settled", "history_points", "shape_times")))
+    static = ("stop_when_settled", "history_points", "shape_times", "contact_loop")
+    hash(tuple(getattr(s, f) for f in static))
     numbers = [(name, getattr(s, name)) for name in (*SETTINGS_NUMBERS, "dt")]
     numbers += [("shape_times", t) for t in s.shape_times]
     for name, value in numbers:

@@ -18,6 +18,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from conftest import SMALL_MESH
 
 import msfd_jax as m
 from msfd_jax import _engine, _pruning, _sweep
@@ -115,8 +116,8 @@ def test_a_pruned_single_run_and_its_histories_equal_the_dense_one(dense):
 
 @pytest.fixture(scope="module")
 def in_contact():
-    """A batch of 8 collisions (h_b/h_r 0.5-4, free and held) 1200 substeps into contact:
-    (flat, y) with permanent sets grown in some pairs."""
+    """A batch of 8 collisions (h_b/h_r 0.5-4, free and held) on the small mesh (7 ring x 9
+    beam contact nodes) 1200 substeps into contact: (flat, y) with permanent sets grown."""
     from msfd_jax import _queue
 
     base = {
@@ -131,7 +132,7 @@ def in_contact():
     )
     smoothing = _queue.with_flags((0.0, 0.0))
     flat, clock, y = _queue._start(
-        params, jnp.full(8, 3e-4), m.Mesh(), smoothing, _sweep.SWEEP_SETTINGS, 10**6
+        params, jnp.full(8, 3e-4), SMALL_MESH, smoothing, _sweep.SWEEP_SETTINGS, 10**6
     )
     h = jnp.full(8, 2e-4)
     body = lambda i, s: _engine.verlet_substep(flat, s, i * h, h, clock.tolerance)  # noqa: E731
@@ -140,12 +141,12 @@ def in_contact():
     return flat, y
 
 
-@pytest.mark.parametrize("blocks", [(2, 7), (3, 4)])
+@pytest.mark.parametrize("blocks", [(1, 3), (2, 4)])
 def test_the_listed_loop_equals_the_blocks_bit_for_bit(in_contact, blocks):
     """`listed_pairs` / `listed_energy` (near blocks in a while loop) against `blocked_pairs` /
     `blocked_energy` (a conditional per block) in the same blocks: forces, permanent sets,
-    total force and dissipation equal to the bit, with blocks that divide the 16 x 21 set and
-    blocks whose last row or column is shifted back (masked overlap). The stored energy is
+    total force and dissipation equal to the bit, with blocks that divide the 7 x 9 set and
+    blocks whose last row and column are shifted back (masked overlap). The stored energy is
     equal to the bit where the blocks divide the set; a shifted block sums its masked zeros
     at other places of XLA's reduction than the smaller block does, which moved the last
     bit (measured 3.5e-16 relative with 4 x 5 blocks): there it is held to 1e-15."""
@@ -175,9 +176,9 @@ def test_the_listed_loop_equals_the_blocks_bit_for_bit(in_contact, blocks):
 def test_contact_loop_is_checked():
     with pytest.raises(ValueError, match="contact_loop must be None or one of 'blocks', 'listed'"):
         m.Settings(contact_loop="dense")
-    paper, finer = m.Mesh(), m.Mesh(ring_segments=30, beam_contact_segments=40)
+    paper, finer = m.Mesh(), m.Mesh(ring_segments=60, beam_contact_segments=80)
     assert _sweep._sweep_settings(m.Settings(), paper).contact_loop == "blocks"
-    assert _sweep._sweep_settings(m.Settings(), finer).contact_loop == "listed"  # 31 x 41
+    assert _sweep._sweep_settings(m.Settings(), finer).contact_loop == "listed"  # 61 x 81
     listed = m.Settings(contact_loop="listed")
     assert _sweep._sweep_settings(listed, paper).contact_loop == "listed"  # as asked
     assert m.Settings().contact_loop is None  # simulate: the blocks (reverse mode works)
