@@ -53,13 +53,30 @@ def _atan(x):
     return jnp.where(x < 0, -r, r)
 
 
+@jax.custom_jvp
 def atan2(y, x):
-    """atan2(y, x) in vectorisable arithmetic (see above); 0 at y = x = 0, like libm."""
+    """atan2(y, x) in vectorisable arithmetic (see above); 0 at y = x = 0, like libm.
+
+    Its derivative is the exact one, d atan2 = (x dy - y dx) / (x^2 + y^2) (0 at the origin),
+    not the derivative of the rational approximation: a few operations instead of the
+    quotient rule through every branch, in each joint of every substep of a `jax.jvp` or
+    `jax.grad` of a run (issue 11, goal 5); the two agree to rounding (tests/test_engine.py).
+    """
     safe_x = jnp.where(x == 0, 1.0, x)
     t = _atan(y / safe_x)
     t = jnp.where(x < 0, jnp.where(y >= 0, t + math.pi, t - math.pi), t)
     axis = jnp.where(y > 0, math.pi / 2, jnp.where(y < 0, -math.pi / 2, 0.0))
     return jnp.where(x == 0, axis, t)
+
+
+@atan2.defjvp
+def _atan2_jvp(primals, tangents):
+    y, x = primals
+    dy, dx = tangents
+    r2 = x * x + y * y
+    positive = r2 > 0
+    rate = (x * dy - y * dx) / jnp.where(positive, r2, 1.0)
+    return atan2(y, x), jnp.where(positive, rate, 0.0)
 
 
 def unwrap_near(angle, centre):

@@ -47,7 +47,7 @@ CONTACT_LOOPS = ("blocks", "listed")  # Settings.contact_loop (msfd_jax._pruning
 # Contact pairs (ring nodes x beam contact nodes) from which a sweep lists the near blocks
 # (`Settings.contact_loop` None). Whole sweeps side by side (benchmarks/sweep_loops.py):
 # 0.87x as fast listed on the paper's 16 x 21 (sweep_loops.md), 0.91x at twice the mesh,
-# 31 x 41 (sweep_loops_x2.md: the tail's small batches favour the conditionals), faster at
+# 31 x 41 (sweep_loops_x2.md: the tail's small batches favour the conditionals), 1.56x at
 # four times, 61 x 81 (sweep_loops_x4.md); single segments: benchmarks/results/contact_loop.md.
 LISTED_FROM_PAIRS = 4000
 
