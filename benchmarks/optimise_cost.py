@@ -20,6 +20,7 @@ Success rates over starts and targets: benchmarks/tuning_success.py. Writes
 benchmarks/results/optimise.md.
 
     python benchmarks/optimise_cost.py [--quick] [--batch 8]
+    python benchmarks/optimise_cost.py --jvp-only   # goal 5's forward mode: optimise_jvp.md
 """
 
 from __future__ import annotations
@@ -75,7 +76,8 @@ def _memory(jitted, *args) -> str:
 
 
 def _costs(problem, design, goal, checkpoints=(None,)):
-    """Rows (name, first, median, memory) for the primal, jvp and reverse programs."""
+    """Rows (name, first, median, memory) for the primal, jvp and reverse programs (no
+    reverse rows for `checkpoints` empty)."""
     smoothing = arrays((SMOOTH["yield_smoothing"], SMOOTH["contact_smoothing"]))
     d = arrays(design)
     at = o.evaluate(design, problem, goal, **SMOOTH).fractions
@@ -170,6 +172,11 @@ def main() -> None:
         "max_steps, no tuning runs",
     )
     parser.add_argument("--batch", type=int, default=8, help="designs in the batched pass")
+    parser.add_argument(
+        "--jvp-only",
+        action="store_true",
+        help="the lean problem's forward run and jvp gradient only (issue 11 goal 5)",
+    )
     args = parser.parse_args()
     # a fresh persistent cache: the timed first calls compile, and lowering a program again for
     # its memory analysis then reads it from the cache instead of compiling it twice
@@ -204,6 +211,19 @@ def main() -> None:
         ("after: no histories saved, `make_problem()` (lean, the default)", lean,
          (None, 1024, steps)),
     )  # fmt: skip
+    if args.jvp_only:
+        lines[2] = lines[2].replace("optimise_cost.py`", "optimise_cost.py --jvp-only`")
+        rows, _ = _costs(lean, design, goal, ())
+        lines += [
+            "| what | first call [s] (compiles) | median [s] | x forward run | memory [MB] |",
+            "|---|---|---|---|---|",
+        ]
+        for what, first, med, memory in rows:
+            ratio = med / rows[0][2]
+            lines.append(f"| {what} | {first:.2f} | {med:.3f} | {ratio:.2f} | {memory} |")
+        lines += ["", f"Issue 11 goal 5: jvp <= 2x ({rows[1][2] / rows[0][2]:.2f}x measured)."]
+        _finish(lines, start, OUT.with_name("optimise_jvp.md"))
+        return
     if args.quick:
         lines[2] = lines[2].replace("optimise_cost.py`", "optimise_cost.py --quick`")
         cases = (("no histories saved, `make_problem()` (lean, the default)", lean, (None, steps)),)
