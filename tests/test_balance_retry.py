@@ -5,6 +5,7 @@ mesh and one compiled program (a fixed max_steps, so each retry reuses it).
 """
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -105,14 +106,18 @@ def test_a_sweep_reruns_open_balances_and_reports_the_best_attempt():
 
 
 def test_run_retries_an_open_balance_until_it_closes():
-    # the showcase on the coarse mesh closes to 2.1e-4 K0 at safety 0.7 (above
-    # BALANCE_RETRY_ABOVE), 1.8e-5 at 0.35
+    # the showcase on the coarse mesh closes to 1.4e-4 K0 at safety 0.7 (above
+    # BALANCE_RETRY_ABOVE), 2.5e-5 at 0.35 (2.1e-4 and 1.8e-5 on another CPU: the coarse mesh's
+    # contact chatter amplifies rounding, so the first attempt's figure is read, not pinned)
     c = m.run(m.CollisionParams(), SMALL_MESH, LEAN)
     assert c.status == "settled" and c.retries == 1
     assert c.safety == pytest.approx(0.35) and not c.balance_warning
     assert abs(c.energy_balance_error) <= BALANCE_TOLERANCE
     assert float(c.solution.dt) / float(c.solution.dt_critical) == pytest.approx(0.35)
-    assert c.message.startswith("retried with dt = ") and "; balance 2.1e-04 K0" in c.message
+    assert c.message.startswith("retried with dt = ")
+    first = re.search(r"after: settled: .*?; balance (\d\.\de-0\d) K0 \(above", c.message)
+    assert first is not None, c.message
+    assert BALANCE_RETRY_ABOVE < float(first.group(1)) < 1e-3
     record = c.to_json()
     assert record["retries"] == 1 and record["safety"] == pytest.approx(0.35)
     assert record["balance_warning"] is False

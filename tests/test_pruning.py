@@ -88,16 +88,18 @@ def test_a_pair_exactly_at_the_gap_is_not_skipped():
 
 
 GRID = dict(
-    thickness_ratio=[0.25, 1.0, 5.0], axial_constraint=[0.0, 1.0], mass_ratio=[5.0, 40.0]
-)  # thin free beams wrap the ring (contact over most pairs), thick held ones touch locally
+    thickness_ratio=[0.25, 5.0], axial_constraint=[0.0, 1.0], mass_ratio=[40.0]
+)  # thin free beams wrap the ring (contact over most pairs), thick held ones touch locally;
+# the sweep's path (queue, refills, rows) on the small mesh: 2 slots, 2 x 2 blocks of 4 x 7 with
+# the last row and column shifted back (the paper mesh's 4 x 3 blocks: the jvp tests below)
 COLUMNS = ("beam_bending", "beam_axial", "ring_bending", "ring_axial", "contact", "kinetic")
 
 
 def test_a_pruned_sweep_equals_the_dense_one(dense):
     settings = _sweep.SWEEP_SETTINGS
-    pruned = m.sweep(GRID, m.Mesh(), settings, chunk_size=16)
+    pruned = m.sweep(GRID, SMALL_MESH, settings, chunk_size=2)
     dense(True)
-    full = m.sweep(GRID, m.Mesh(), settings, chunk_size=16)
+    full = m.sweep(GRID, SMALL_MESH, settings, chunk_size=2)
     for name in ("steps", "result", "t_end", *COLUMNS):
         np.testing.assert_array_equal(pruned[name], full[name], err_msg=name)
 

@@ -7,6 +7,7 @@ where the step past the stability estimate is probed, and one without the settli
 
 import pytest
 
+import msfd_jax as m
 from msfd_jax.studies import stability as st
 
 FINISHING = (
@@ -73,9 +74,15 @@ def test_stability_estimate_is_safe_and_the_guard_catches_a_step_past_the_limit(
 def test_estimate_is_conservative_on_the_coarse_mesh(rows):
     # coarse mesh: the Gershgorin contact bound over-estimates omega_max (observed limit
     # 2.05 x dt_crit), so 1.2 and 1.5 x are still stable and 2.2 x is caught: the estimate
-    # never lets an unstable step through
-    assert rows["coarse_1.2"]["result"] == "settled"
-    assert rows["coarse_1.5"]["result"] == "settled"
+    # never lets an unstable step through. Stable means not stopped by the energy guard (an
+    # unstable step grows past it within the first impact, as coarse_2.2 does); which of the
+    # two regular stops ends the run depends on the CPU's rounding, which the coarse mesh's
+    # contact chatter amplifies (coarse_1.2: settled at tau 2.25 with balance 3.0e-3 on one
+    # machine, the time cap tau = 3 with 2.4e-3 on another)
+    for name in ("coarse_1.2", "coarse_1.5"):
+        row = rows[name]
+        assert row["result"] in ("settled", "time limit"), row["message"]
+        assert row["finite"] and abs(row["energy_balance_error"]) < 0.5 * m.Settings().energy_guard
     assert rows["coarse_2.2"]["result"] == "energy balance broken"
     assert "the computed stability limit" in rows["coarse_2.2"]["message"]
 
