@@ -8,12 +8,19 @@ per core by default), ``--workers 1`` (one core), and a LocalCluster of two work
 
     python benchmarks/sweep_1024.py            # writes benchmarks/results/sweep_1024.md
     python benchmarks/sweep_1024.py --only plain   # the goal's configuration alone
+    python benchmarks/sweep_1024.py --only plain --against SRC --repeats 2
+        # this tree against another (`git archive COMMIT | tar -x -C SRC`), side by side
+
+With ``--against`` each tree has its own cache; the cold processes run first (this tree, then
+SRC), then the warm ones alternate, the order swapping each round, so a machine that is
+slower today than yesterday shows in both columns alike.
 """
 
 from __future__ import annotations
 
 import argparse
 import datetime
+import os
 import subprocess
 import sys
 import tempfile
@@ -33,11 +40,16 @@ CONFIGS = {
 KEYS = dict(zip(("plain", "workers1", "cluster"), CONFIGS, strict=True))
 
 
-def run(extra: list[str], cache: str) -> tuple[float, str]:
+def run(extra: list[str], cache: str, src: Path | None = None) -> tuple[float, str]:
     cmd = [sys.executable, "-m", "msfd_jax.cli", "sweep", *GRID, *extra]
-    env = {**__import__("os").environ, "MSFD_CACHE_DIR": cache}
+    env = {**os.environ, "MSFD_CACHE_DIR": cache}
+    if src is not None:  # another source tree first on the path, run from inside it
+        extra_path = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+        env["PYTHONPATH"] = os.pathsep.join([str(src), *extra_path])
     tick = time.perf_counter()
-    out = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
+    out = subprocess.run(
+        cmd, capture_output=True, text=True, env=env, check=False, cwd=src or tempfile.gettempdir()
+    )
     wall = time.perf_counter() - tick
     last = [line for line in out.stdout.splitlines() if "collisions in" in line]
     return wall, (last[-1] if last else out.stderr[-300:])
@@ -47,15 +59,29 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", nargs="+", choices=list(KEYS), default=list(KEYS))
     parser.add_argument("--output", type=Path, default=RESULTS / "sweep_1024.md")
+    parser.add_argument("--against", type=Path, metavar="SRC", help="another source tree")
+    parser.add_argument("--repeats", type=int, default=1, help="warm processes per tree")
     args = parser.parse_args()
+    trees = {"this tree": None}
+    if args.against is not None:
+        trees[f"against {args.against}"] = args.against.resolve()
     rows = []
     with tempfile.TemporaryDirectory() as cache:
         for key in args.only:
             name, extra = KEYS[key], CONFIGS[KEYS[key]]
-            cold, _ = run(extra, cache)
-            warm, summary = run(extra, cache)
-            rows.append((name, cold, warm, summary))
-            print(f"{name}: cold {cold:.1f} s, warm {warm:.1f} s; {summary}", flush=True)
+            caches = {t: f"{cache}/{key}-{i}" for i, t in enumerate(trees)}
+            cold = {t: run(extra, caches[t], src)[0] for t, src in trees.items()}
+            warm: dict[str, list[float]] = {t: [] for t in trees}
+            summary = {}
+            for r in range(args.repeats):
+                for t in list(trees)[:: 1 if r % 2 == 0 else -1]:
+                    wall, summary[t] = run(extra, caches[t], trees[t])
+                    warm[t].append(wall)
+            for t in trees:
+                label = name if len(trees) == 1 else f"{name}, {t}"
+                times = ", ".join(f"{w:.1f}" for w in warm[t])
+                rows.append((label, cold[t], times, summary[t]))
+                print(f"{label}: cold {cold[t]:.1f} s, warm {times} s; {summary[t]}", flush=True)
     date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     lines = [
         "# 1024 paper-mesh collisions with plain `msfd sweep` (issue 11, goal 2: <= 30 s)",
@@ -64,10 +90,10 @@ def main() -> None:
         "",
         f"Grid: `msfd sweep {' '.join(GRID)}`",
         "",
-        "| configuration | first process (compiles) s | second process (cache) s | summary |",
+        "| configuration | first process (compiles) s | next processes (cache) s | summary |",
         "|---|---:|---:|---|",
     ]
-    lines += [f"| {n} | {c:.1f} | {w:.1f} | {s} |" for n, c, w, s in rows]
+    lines += [f"| {n} | {c:.1f} | {w} | {s} |" for n, c, w, s in rows]
     args.output.write_text("\n".join(lines) + "\n")
 
 
