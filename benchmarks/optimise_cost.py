@@ -5,7 +5,8 @@ w = 0.01 (the first annealing stage). Measures, after compiling:
 
 - a forward run (the smoothed model's partition), a forward-mode gradient (jax.jvp through
   diffrax.ForwardMode, one design variable) and a reverse-mode gradient (jax.grad through
-  RecursiveCheckpointAdjoint; the sweep alone, given dJ/df), median of `REPEATS`, and the
+  RecursiveCheckpointAdjoint; the sweep alone, given dJ/df), the median of `REPEATS` rounds
+  in which every program is timed in turn (interleaved, so the ratios are side by side), and the
   memory XLA plans for each compiled program (`memory_analysis()`: temporaries, arguments,
   outputs);
 - before/after two levers: saving no histories (``make_problem(lean=False)``, the old
@@ -46,7 +47,7 @@ from msfd_jax._sweep import step_bound
 from optimise._gradient import _forward, _reverse
 from optimise._problem import _evaluate, arrays, objective_value_and_grad
 
-REPEATS = 3
+REPEATS = 5  # interleaved rounds (`_medians`)
 SMOOTH = dict(yield_smoothing=0.05, contact_smoothing=0.01)
 OUT = Path(__file__).parent / "results" / "optimise.md"
 MB = 1024.0**2
@@ -58,9 +59,19 @@ def _timed(fn):
     return time.perf_counter() - start, out
 
 
-def _median(fn) -> tuple[float, float]:
-    first, _ = _timed(fn)
-    return first, statistics.median(_timed(fn)[0] for _ in range(REPEATS))
+def _medians(programs: dict) -> dict[str, tuple[float, float]]:
+    """(first call, median) of each program: every program is called once first (it
+    compiles), then all are timed in turn for `REPEATS` rounds, each round starting one
+    program further along, so a neighbour's load on the shared machine weighs on all alike
+    and the ratios compare like with like."""
+    first = {k: _timed(f)[0] for k, f in programs.items()}
+    times: dict[str, list[float]] = {k: [] for k in programs}
+    keys = list(programs)
+    for r in range(REPEATS):
+        shift = r % len(keys)
+        for k in keys[shift:] + keys[:shift]:
+            times[k].append(_timed(programs[k])[0])
+    return {k: (first[k], statistics.median(times[k])) for k in keys}
 
 
 def _memory(jitted, *args) -> str:
@@ -83,27 +94,25 @@ def _costs(problem, design, goal, checkpoints=(None,)):
     at = o.evaluate(design, problem, goal, **SMOOTH).fractions
     _, weights = objective_value_and_grad(arrays(goal), at)
     tangent = jax.tree_util.tree_map(jnp.ones_like, d)
-    rows = []
-    primal = _median(lambda: o.evaluate(design, problem, goal, **SMOOTH).fractions)
-    rows.append(("forward run", *primal, _memory(_evaluate, d, problem, *smoothing)))
-    forward = _median(lambda: o.gradient(design, problem, goal, mode="forward", **SMOOTH)[1])
-    rows.append(
-        ("jvp gradient (1 variable)", *forward, _memory(_forward, d, tangent, problem, *smoothing))
-    )
+    programs = {
+        "forward run": lambda: o.evaluate(design, problem, goal, **SMOOTH).fractions,
+        "jvp gradient (1 variable)": lambda: o.gradient(
+            design, problem, goal, mode="forward", **SMOOTH
+        )[1],
+    }
+    memory = {
+        "forward run": lambda: _memory(_evaluate, d, problem, *smoothing),
+        "jvp gradient (1 variable)": lambda: _memory(_forward, d, tangent, problem, *smoothing),
+    }
     for n in checkpoints:
-        reverse = _median(
-            lambda n=n: o.gradient(
-                design, problem, goal, mode="reverse", partition_at=at, checkpoints=n, **SMOOTH
-            )[1]
-        )
-        label = "log2(max_steps)" if n is None else str(n)
-        rows.append(
-            (
-                f"reverse gradient, {label} checkpoints (sweep, given dJ/df)",
-                *reverse,
-                _memory(_reverse, d, weights, problem, *smoothing, n),
-            )
-        )
+        label = f"reverse gradient, {'log2(max_steps)' if n is None else n} checkpoints"
+        label += " (sweep, given dJ/df)"
+        programs[label] = lambda n=n: o.gradient(
+            design, problem, goal, mode="reverse", partition_at=at, checkpoints=n, **SMOOTH
+        )[1]
+        memory[label] = lambda n=n: _memory(_reverse, d, weights, problem, *smoothing, n)
+    timings = _medians(programs)
+    rows = [(k, *timings[k], memory[k]()) for k in programs]
     return rows, at
 
 
@@ -136,11 +145,12 @@ def _batched(problem, first_forward: float, size: int) -> list[str]:
         lambda t: jax.jvp(lambda x: beam_share(x, diffrax.ForwardMode()), (h,), (t,))
     )
     ones = jnp.ones(size)
+    names = ("batched forward run", "batched jvp (each design along its own h_b/h_r)")
+    timings = _medians(dict(zip(names, (lambda: forward(h), lambda: tangents(ones)), strict=True)))
     rows = [
-        ("batched forward run", *_median(lambda: forward(h)), _memory(forward, h)),
-        ("batched jvp (each design along its own h_b/h_r)", *_median(lambda: tangents(ones)),
-         _memory(tangents, ones)),
-    ]  # fmt: skip
+        (names[0], *timings[names[0]], _memory(forward, h)),
+        (names[1], *timings[names[1]], _memory(tangents, ones)),
+    ]
     lines = [
         f"## Batched forward mode: {size} designs in one pass (`solve_batch`, issue 11 goal 5)",
         "",
