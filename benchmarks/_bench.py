@@ -120,3 +120,14 @@ def interleaved_best(programs: dict, rounds: int) -> dict:
             jax.block_until_ready(f(*a))
             best[key] = min(best[key], time.perf_counter() - tick)
     return best
+
+
+def loop_body_fusions(jitted, *args) -> int:
+    """Fusions (XLA:CPU kernels) in the body of the compiled program's first while loop: at
+    a batch of one a substep costs about a fixed time per kernel, so this counts its work."""
+    import re
+
+    text = jitted.lower(*args).compile().as_text()
+    body = re.search(r" while\(.*?body=(%?[\w.\-]+)", text).group(1).lstrip("%")
+    block = re.search(rf"^%?{re.escape(body)} .*?\{{\n(.*?)^\}}", text, re.M | re.S).group(1)
+    return len(re.findall(r"= \S+ fusion\(", block))
