@@ -186,8 +186,9 @@ def run_queue(
     run time (compile time excluded) and its attempt; calls are serialised. Returns the
     slot count, the worker count, the number of segments and of compactions (below), the
     Verlet steps the slots ran in all (`slot_steps`, busy or idle: the sweep's steps over it
-    is the lanes' utilisation), the compile and run times (run time: wall time of the whole
-    queue, compile excluded).
+    is the lanes' utilisation), the seconds the workers spent in segment programs in all
+    (`segment_s`; the rest of workers x run time is the hand-over: reports, rows, refills),
+    the compile and run times (run time: wall time of the whole queue, compile excluded).
 
     The tail: once the queue is empty and at most half of a worker's slots still run, their
     collisions move into a program of fewer slots (the next power of two, down to
@@ -260,6 +261,7 @@ def run_queue(
     compile_s = time.perf_counter() - tick
     segments, halvings = [0] * workers, [0] * workers
     slot_steps = [0] * workers  # Verlet steps the lanes ran, busy or idle (utilisation)
+    segment_s = [0.0] * workers  # seconds in the segment programs (the rest: the hand-over)
     errors: list[BaseException] = []
 
     def shrink(state, slot_row, busy, slot_attempt, size):
@@ -287,6 +289,7 @@ def run_queue(
             y = segment_fn(flat, clock, y, settings, segment)
             done = np.asarray(y.done) > 0
             wall = time.perf_counter() - tick
+            segment_s[w] += wall
             segments[w] += 1
             slot_steps[w] += len(slot_row) * segment * settings.substeps
             active = slot_row >= 0
@@ -366,7 +369,7 @@ def run_queue(
     late = sum(compiled[1:])
     return dict(
         slots=b, workers=workers, segments=sum(segments), compactions=sum(halvings),
-        slot_steps=sum(slot_steps), compile_s=compile_s + late,
+        slot_steps=sum(slot_steps), segment_s=sum(segment_s), compile_s=compile_s + late,
         run_s=time.perf_counter() - tick - late,
     )  # fmt: skip
 
