@@ -136,9 +136,11 @@ def main() -> None:
         "included.",
         "",
         f"Of the workers' run time ({t['workers']} x {t['run_s']:.1f} s), "
-        f"{t['segment_s']:.1f} s went to the segment programs and the other {hand:.0%} to "
-        "the hand-over between segments (finished slots reported, rows built, refills): "
-        f"**{handover:.2f} µs per collision-step per core**.",
+        f"{t['segment_s']:.1f} s went to the segment programs and the other {hand:.0%} "
+        "outside them: the hand-over between segments (finished slots reported, rows built, "
+        "refills), a worker standing idle at the end while the other finishes, and waits "
+        f"for a tail program's compilation: **{handover:.2f} µs per collision-step per "
+        "core**.",
         "",
         f"On one core, {SLOTS} collisions of the grid (seed {seg['seed']}) after "
         f"{SEGMENTS_IN} segments ({seg['running']} still running), µs per collision-step:",
@@ -151,7 +153,7 @@ def main() -> None:
         "",
         f"Reading: the sweep pays {per_step / budget:.2f} x the budget: its segment programs "
         f"{in_segments:.2f} µs per collision-step per core ({in_segments / budget:.2f} x) and "
-        f"the hand-over {handover:.2f} ({handover / budget:.2f} x). A segment of this sample "
+        f"the rest {handover:.2f} ({handover / budget:.2f} x). A segment of this sample "
         f"alone costs {first:.3f} µs ({first / budget:.2f} x); the sweep's segments cost more "
         "with phases dearer than this sample's, the tail's smaller batches and two workers "
         "sharing the machine.",

@@ -187,7 +187,8 @@ def run_queue(
     slot count, the worker count, the number of segments and of compactions (below), the
     Verlet steps the slots ran in all (`slot_steps`, busy or idle: the sweep's steps over it
     is the lanes' utilisation), the seconds the workers spent in segment programs in all
-    (`segment_s`; the rest of workers x run time is the hand-over: reports, rows, refills),
+    (`segment_s`; the rest of workers x run time: the hand-over between segments, a worker
+    idle at the end, waits for a tail program's compilation),
     the compile and run times (run time: wall time of the whole queue, compile excluded).
 
     The tail: once the queue is empty and at most half of a worker's slots still run, their
@@ -261,7 +262,7 @@ def run_queue(
     compile_s = time.perf_counter() - tick
     segments, halvings = [0] * workers, [0] * workers
     slot_steps = [0] * workers  # Verlet steps the lanes ran, busy or idle (utilisation)
-    segment_s = [0.0] * workers  # seconds in the segment programs (the rest: the hand-over)
+    segment_s = [0.0] * workers  # seconds in the segment programs
     errors: list[BaseException] = []
 
     def shrink(state, slot_row, busy, slot_attempt, size):
