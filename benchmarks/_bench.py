@@ -1,5 +1,5 @@
 """Small pieces the core benchmarks share: pinning to one core, a batch of showcase-like
-collisions, a loop of Verlet substeps, and interleaved timing (best round)."""
+collisions, a loop of Verlet substeps, and interleaved timing."""
 
 from __future__ import annotations
 
@@ -98,9 +98,9 @@ def substep_loop(steps: int, h, tolerance, listed: bool = False):
     return eqx.filter_jit(loop)
 
 
-def interleaved_best(programs: dict, rounds: int) -> dict:
-    """Best wall time of each ``(f, *args)`` in `programs`, timed in turn round after round
-    (so a noisy neighbour weighs on all alike); each is run once first (compilation).
+def interleaved_times(programs: dict, rounds: int) -> tuple[dict, dict]:
+    """Wall times of each ``(f, *args)`` in `programs`: its first call (compilation) and
+    `rounds` more, timed in turn round after round (so a noisy neighbour weighs on all alike).
 
     Each round starts one program further along (round r times them from the r-th on). In a
     fixed order the program timed first in every round runs right after programs of another
@@ -108,18 +108,26 @@ def interleaved_best(programs: dict, rounds: int) -> dict:
     after it, so a table's first column was penalised."""
     import jax
 
-    for f, *a in programs.values():
+    def timed(f, *a):
+        tick = time.perf_counter()
         jax.block_until_ready(f(*a))
-    best = dict.fromkeys(programs, float("inf"))
+        return time.perf_counter() - tick
+
+    first = {key: timed(*program) for key, program in programs.items()}
+    times: dict = {key: [] for key in programs}
     keys = list(programs)
     for r in range(rounds):
         shift = r % len(keys)
         for key in keys[shift:] + keys[:shift]:
-            f, *a = programs[key]
-            tick = time.perf_counter()
-            jax.block_until_ready(f(*a))
-            best[key] = min(best[key], time.perf_counter() - tick)
-    return best
+            times[key].append(timed(*programs[key]))
+    return first, times
+
+
+def interleaved_best(programs: dict, rounds: int) -> dict:
+    """Best wall time of each ``(f, *args)`` in `programs` over `rounds` interleaved rounds
+    after a first call (`interleaved_times`)."""
+    _, times = interleaved_times(programs, rounds)
+    return {key: min(t) for key, t in times.items()}
 
 
 def loop_body_fusions(jitted, *args) -> int:

@@ -35,6 +35,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import _bench
 import diffrax
 import jax
 import jax.numpy as jnp
@@ -53,25 +54,11 @@ OUT = Path(__file__).parent / "results" / "optimise.md"
 MB = 1024.0**2
 
 
-def _timed(fn):
-    start = time.perf_counter()
-    out = jax.block_until_ready(fn())
-    return time.perf_counter() - start, out
-
-
 def _medians(programs: dict) -> dict[str, tuple[float, float]]:
-    """(first call, median) of each program: every program is called once first (it
-    compiles), then all are timed in turn for `REPEATS` rounds, each round starting one
-    program further along, so a neighbour's load on the shared machine weighs on all alike
-    and the ratios compare like with like."""
-    first = {k: _timed(f)[0] for k, f in programs.items()}
-    times: dict[str, list[float]] = {k: [] for k in programs}
-    keys = list(programs)
-    for r in range(REPEATS):
-        shift = r % len(keys)
-        for k in keys[shift:] + keys[:shift]:
-            times[k].append(_timed(programs[k])[0])
-    return {k: (first[k], statistics.median(times[k])) for k in keys}
+    """(first call, median) of each zero-argument program, timed in turn for `REPEATS`
+    rounds (`_bench.interleaved_times`), so the ratios compare like with like."""
+    first, times = _bench.interleaved_times({k: (f,) for k, f in programs.items()}, REPEATS)
+    return {k: (first[k], statistics.median(times[k])) for k in programs}
 
 
 def _memory(jitted, *args) -> str:
