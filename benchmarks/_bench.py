@@ -92,7 +92,8 @@ def substep_loop(steps: int, h, tolerance, listed: bool = False):
     from msfd_jax import _engine
 
     def loop(flat, y):
-        body = lambda i, s: _engine.verlet_substep(flat, s, i * h, h, tolerance, listed)  # noqa: E731
+        loop_name = "listed" if listed else "blocks"
+        body = lambda i, s: _engine.verlet_substep(flat, s, i * h, h, tolerance, loop_name)  # noqa: E731
         return jax.lax.fori_loop(0, steps, body, y)
 
     return eqx.filter_jit(loop)

@@ -189,7 +189,7 @@ CASES: tuple[Case, ...] = (
     _C("m.Settings(history_points=1)", "history_points", ">= 2"),
     _C("m.Settings(substeps=0)", "substeps", ">= 1"),
     _C("m.Settings(substeps=2.0)", "substeps", ">= 1", TypeError),
-    _C("m.Settings(contact_loop='dense')", "contact_loop", "'blocks', 'listed'"),
+    _C("m.Settings(contact_loop='pruned')", "contact_loop", "'blocks', 'listed', 'dense'"),
     _C("m.Settings(tmax=1.0)", "tmax", None, TypeError),
     _C(
         "m.run(P(), SMALL, m.Settings(safety=10.0, **SHORT))",

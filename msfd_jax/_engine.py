@@ -31,6 +31,8 @@ from ._pruning import (
     blocked_energy,
     blocked_pairs,
     contact_blocks,
+    dense_energy,
+    dense_pairs,
     listed_blocks,
     listed_energy,
     listed_pairs,
@@ -227,13 +229,26 @@ def _plane_forces(p, f, n_nodes):
     return _pad(fa, p.a, n_nodes - p.a - p.n_a)
 
 
-def respond(flat: FlatScene, x, rotation_p, strain_p, permanent_set, listed=False) -> Response:
+def _contact_loop(loop: str):
+    """(pairs, energy, block shape) functions of a node-to-node set for
+    ``Settings.contact_loop`` `loop` ("blocks", "listed" or "dense"; `msfd_jax._pruning`)."""
+    if loop == "listed":
+        return listed_pairs, listed_energy, listed_blocks
+    if loop == "dense":
+        return dense_pairs, dense_energy, contact_blocks
+    return blocked_pairs, blocked_energy, contact_blocks
+
+
+def respond(
+    flat: FlatScene, x, rotation_p, strain_p, permanent_set, loop: str = "blocks"
+) -> Response:
     """Return-map every spring at `x` and assemble the nodal forces in closed form (Eq. 10).
 
     The elastic energy is not computed here (the step does not need it): `elastic_energy`
-    evaluates it from the state once per diffrax step. `listed` (static): node-to-node sets
-    visit their near blocks in a while loop (`_pruning.listed_pairs`, forward mode only)
-    instead of a conditional per block (``Settings.contact_loop``).
+    evaluates it from the state once per diffrax step. `loop` (static,
+    ``Settings.contact_loop``): how node-to-node sets skip their far blocks: a conditional
+    per block ("blocks"), a while loop over the near blocks ("listed", forward mode only) or
+    not at all ("dense"); see `msfd_jax._pruning`.
     """
     forces, rot, strain, bend, axial = [], [], [], [], []
     for c in flat.chains:
@@ -257,8 +272,8 @@ def respond(flat: FlatScene, x, rotation_p, strain_p, permanent_set, listed=Fals
             dissipated.append(dc)
             continue
         if isinstance(p, PairLayout):
-            pairs = listed_pairs if listed else blocked_pairs
-            blocks = (listed_blocks if listed else contact_blocks)(p.n_a, p.n_b, x.shape[-1])
+            pairs, _, shape = _contact_loop(loop)
+            blocks = shape(p.n_a, p.n_b, x.shape[-1])
             fc, ps1, total_force, dc = pairs(p, x, gap, k, fy, ps, blocks, _contact_width(flat, 2))
             force = force + fc
             new_set.append(ps1)
@@ -285,7 +300,7 @@ def respond(flat: FlatScene, x, rotation_p, strain_p, permanent_set, listed=Fals
 
 
 def elastic_energy(
-    flat: FlatScene, x, rotation_p, strain_p, permanent_set, listed=False
+    flat: FlatScene, x, rotation_p, strain_p, permanent_set, loop: str = "blocks"
 ) -> Float[Array, " B"]:
     """Elastic energy stored at `x` with the plastic parts after the return mapping.
 
@@ -311,8 +326,8 @@ def elastic_energy(
             energy = energy + collapse_energy(flat, p, x, gap, k, ps)
             continue
         if isinstance(p, PairLayout):
-            stored = listed_energy if listed else blocked_energy
-            blocks = (listed_blocks if listed else contact_blocks)(p.n_a, p.n_b, x.shape[-1])
+            _, stored, shape = _contact_loop(loop)
+            blocks = shape(p.n_a, p.n_b, x.shape[-1])
             energy = energy + stored(p, x, gap, k, ps, blocks, _contact_width(flat, 2))
             continue
         delta, _ = _approach(p, x, gap)
@@ -375,16 +390,18 @@ def initial_state(flat: FlatScene) -> BatchState:
     )  # fmt: skip
 
 
-def verlet_substep(flat: FlatScene, s: BatchState, t1, h, tolerance, listed=False) -> BatchState:
+def verlet_substep(
+    flat: FlatScene, s: BatchState, t1, h, tolerance, loop: str = "blocks"
+) -> BatchState:
     """One velocity-Verlet step of length h (B,) with return mapping at the new positions.
 
     The state's elastic energy is left as it was: `advance` updates it once per diffrax step
-    (it enters only the energy balance and the stopping rule, checked there). `listed`: see
+    (it enters only the energy balance and the stopping rule, checked there). `loop`: see
     `respond`."""
     hb = h[None, None]  # (1, 1, B) against (N, 2, B)
     v_half = s.v + 0.5 * hb * s.a
     x = s.x + hb * v_half
-    r = respond(flat, x, s.plastic_rotation, s.plastic_strain, s.permanent_set, listed)
+    r = respond(flat, x, s.plastic_rotation, s.plastic_strain, s.permanent_set, loop)
     a1 = _accelerations(flat, r.forces)
     v1 = v_half + 0.5 * hb * a1
     reaction = _reaction(flat, r.forces)
@@ -432,14 +449,14 @@ def advance(flat: FlatScene, clock: Clock, s: BatchState, substeps: int, rule) -
     t_next = jnp.where(capped, clock.t_max, t_next)
     t0 = s.t
     h = (t_next - t0) / substeps
-    listed = rule.contact_loop == "listed"
+    loop = rule.contact_loop or "blocks"
 
     def body(i, y):
-        return verlet_substep(flat, y, t0 + (i + 1) * h, h, clock.tolerance, listed)
+        return verlet_substep(flat, y, t0 + (i + 1) * h, h, clock.tolerance, loop)
 
     y = body(0, s) if substeps == 1 else jax.lax.fori_loop(0, substeps, body, s)
     sets = y.permanent_set
-    elastic = elastic_energy(flat, y.x, y.plastic_rotation, y.plastic_strain, sets, listed)
+    elastic = elastic_energy(flat, y.x, y.plastic_rotation, y.plastic_strain, sets, loop)
     y = eqx.tree_at(lambda q: q.elastic, y, elastic)
     err = energy_error(flat, y, clock.k0)
     non_finite = ~jnp.isfinite(err)

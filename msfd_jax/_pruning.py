@@ -8,6 +8,9 @@ force, keep their permanent sets, dissipate and store nothing). Two ways to skip
 - ``"blocks"`` (`blocked_pairs`): each block is a ``lax.cond``; differentiable in forward and
   reverse mode. A skipped block still costs its conditional and passes its part of the
   permanent set through (benchmarks/results/profile_contact.md).
+- ``"dense"`` (`dense_pairs`): every pair in one block, no conditional, nothing skipped:
+  straight-line code for a GPU, where XLA may run a conditional by reading its predicate on
+  the host (benchmarks/gpu_throughput.py compares the loops there).
 - ``"listed"`` (`listed_pairs`): the near blocks are listed and a ``lax.while_loop`` visits
   only them, updating the permanent set and the forces in place; a far block costs nothing
   but its bounding-box test. Forward mode (``jax.jvp``) works through it, reverse mode does
@@ -135,6 +138,42 @@ def pair_geometry(xa, xb, gap):
     return gap[None, None] - dist, (dx, dy, dist, apart)
 
 
+def _block_response(xa, xb, ps, k, fy, gap, rows, cols, width):
+    """One block (ring nodes `rows`, beam nodes `cols`) of a node-to-node set: its nodal
+    forces on each side, new permanent set, total pair force and dissipation per collision."""
+    (i0, i1), (j0, j1) = rows, cols
+    delta, (dx, dy, dist, apart) = pair_geometry(xa[i0:i1], xb[j0:j1], gap)
+    sl = (slice(i0, i1), slice(j0, j1))
+    f, ps1, dc = contact_spring(delta, ps[sl], k[sl], fy[sl], width)
+    c = jnp.where(apart, f / jnp.where(apart, dist, 1.0), 0.0)
+    fx, fy_ = c * dx, c * dy
+    f_a = jnp.stack([jnp.sum(fx, axis=1), jnp.sum(fy_, axis=1)], axis=1)
+    f_b = -jnp.stack([jnp.sum(fx, axis=0), jnp.sum(fy_, axis=0)], axis=1)
+    return f_a, f_b, ps1, total(f), total(dc)
+
+
+def dense_pairs(p: PairLayout, x, gap, k, fy, ps, blocks, width):
+    """A node-to-node set's response with every pair evaluated in one block and no
+    conditional (``Settings.contact_loop = "dense"``; `blocks` is ignored). The same
+    arithmetic as `blocked_pairs` with one block that is near, bit for bit
+    (tests/test_pruning.py). Without a branch the step is straight-line code, for a GPU
+    (benchmarks/gpu_throughput.py compares the loops there)."""
+    xa, xb = x[p.a : p.a + p.n_a], x[p.b : p.b + p.n_b]
+    f_a, f_b, new_set, f_sum, dissipated = _block_response(
+        xa, xb, ps, k, fy, gap, (0, p.n_a), (0, p.n_b), width
+    )
+    n_nodes = x.shape[0]
+    force = pad(f_a, p.a, n_nodes - p.a - p.n_a) + pad(f_b, p.b, n_nodes - p.b - p.n_b)
+    return force, new_set, f_sum, dissipated
+
+
+def dense_energy(p: PairLayout, x, gap, k, ps, blocks, width):
+    """A node-to-node set's stored energy (B,), every pair evaluated (`dense_pairs`)."""
+    xa, xb = x[p.a : p.a + p.n_a], x[p.b : p.b + p.n_b]
+    delta, _ = pair_geometry(xa, xb, gap)
+    return jnp.sum(contact_energy(delta, ps, k, width), axis=(0, 1))
+
+
 def blocked_pairs(p: PairLayout, x, gap, k, fy, ps, blocks, width):
     """A node-to-node set's response, block by block, blocks out of reach skipped exactly
     (`near_blocks`). Returns (nodal forces (N, 2, B), new permanent set, total pair force
@@ -148,14 +187,7 @@ def blocked_pairs(p: PairLayout, x, gap, k, fy, ps, blocks, width):
 
     def branches(i0, i1, j0, j1):
         def pairs(xa, xb, ps, k, fy, gap):
-            delta, (dx, dy, dist, apart) = pair_geometry(xa[i0:i1], xb[j0:j1], gap)
-            sl = (slice(i0, i1), slice(j0, j1))
-            f, ps1, dc = contact_spring(delta, ps[sl], k[sl], fy[sl], width)
-            c = jnp.where(apart, f / jnp.where(apart, dist, 1.0), 0.0)
-            fx, fy_ = c * dx, c * dy
-            f_a = jnp.stack([jnp.sum(fx, axis=1), jnp.sum(fy_, axis=1)], axis=1)
-            f_b = -jnp.stack([jnp.sum(fx, axis=0), jnp.sum(fy_, axis=0)], axis=1)
-            return f_a, f_b, ps1, total(f), total(dc)
+            return _block_response(xa, xb, ps, k, fy, gap, (i0, i1), (j0, j1), width)
 
         def idle(xa, xb, ps, k, fy, gap):
             z = jnp.zeros(batch)

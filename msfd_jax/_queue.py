@@ -191,8 +191,8 @@ def run_queue(
     idle at the end, waits for a tail program's compilation),
     the compile and run times (run time: wall time of the whole queue, compile excluded).
 
-    The tail: once the queue is empty and at most half of a worker's slots still run, their
-    collisions move into a program of fewer slots (the next power of two, down to
+    The tail (on a CPU): once the queue is empty and at most half of a worker's slots still
+    run, their collisions move into a program of fewer slots (the next power of two, down to
     `TAIL_SLOTS`; compiled when first needed, its compilation counted as compile time): the
     tail of a sweep no longer pays for stopped slots. A collision's result does not depend
     on its slot or the slot count (tests/test_sweep.py).
@@ -222,6 +222,10 @@ def run_queue(
             got = [queue.popleft() for _ in range(min(count, len(queue)))]
         return [r for r, _ in got], [a for _, a in got]
 
+    # The tail moves to fewer slots on a CPU only: there a substep's cost grows with its
+    # slots, while on an accelerator a substep of a few slots costs about what one of many
+    # does (kernel launches, not lanes) and each smaller size would cost a compilation.
+    compact = _platform() == "cpu"
     compiled: list[float] = []  # seconds of each program size's compilation
     programs: dict[int, tuple] = {}
     compiling = threading.Lock()
@@ -331,7 +335,7 @@ def run_queue(
                 slot_row[fill] = rows
                 slot_attempt[fill] = attempts
             running, size = int((slot_row >= 0).sum()), len(slot_row)
-            smaller = _tail_size(running, size)
+            smaller = _tail_size(running, size) if compact else size
             if not rows and smaller < size:  # the tail: the queue is empty
                 state = (flat, clock, y)
                 (flat, clock, y), slot_row, busy, slot_attempt = shrink(
@@ -373,6 +377,15 @@ def run_queue(
         slot_steps=sum(slot_steps), segment_s=sum(segment_s), compile_s=compile_s + late,
         run_s=time.perf_counter() - tick - late,
     )  # fmt: skip
+
+
+def _platform() -> str:
+    """The platform the queue's programs run on: the default device's (``jax.default_device``
+    when set, as benchmarks/gpu_throughput.py does)."""
+    device = jax.config.jax_default_device
+    if device is None:
+        return jax.default_backend()
+    return device if isinstance(device, str) else device.platform
 
 
 def _tail_size(running: int, size: int) -> int:

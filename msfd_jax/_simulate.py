@@ -41,7 +41,7 @@ if TYPE_CHECKING:  # diffrax is imported where a solve is traced (`_simulate`, `
     import diffrax
 
 _critical_step = eqx.filter_jit(critical_step)
-CONTACT_LOOPS = ("blocks", "listed")  # Settings.contact_loop (msfd_jax._pruning)
+CONTACT_LOOPS = ("blocks", "listed", "dense")  # Settings.contact_loop (msfd_jax._pruning)
 
 
 # Contact pairs (ring nodes x beam contact nodes) from which a sweep lists the near blocks
@@ -98,10 +98,12 @@ class Settings(eqx.Module):
       `msfd_jax._pruning`): ``"blocks"`` a conditional per block, differentiable in forward
       and reverse mode; ``"listed"`` a loop over the near blocks only, faster on batches
       (benchmarks/results/contact_loop.md) but differentiable in forward mode (``jax.jvp``)
-      only. ``None`` (the default): ``"blocks"``, except in a sweep (never differentiated)
-      of a mesh whose contact set has at least `LISTED_FROM_PAIRS` (4000) pairs, four times
-      the paper's mesh and finer, where ``"listed"`` is the faster. Both give the same partition
-      to rounding (they group the contact's sums in blocks of different shapes).
+      only; ``"dense"`` every pair in one block with no conditional (nothing skipped; for a
+      GPU, benchmarks/results/gpu.md). ``None`` (the default): ``"blocks"``, except in a
+      sweep (never differentiated) of a mesh whose contact set has at least
+      `LISTED_FROM_PAIRS` (4000) pairs, four times the paper's mesh and finer, where
+      ``"listed"`` is the faster. All give the same partition to rounding (they group the
+      contact's sums in blocks of different shapes).
     """
 
     safety: float = 0.7

@@ -194,7 +194,9 @@ SETTINGS_STATIC = {
     ),
     "max_steps": st.one_of(st.none(), COUNTS),
     "substeps": COUNTS,
-    "contact_loop": st.one_of(st.none(), st.sampled_from(["blocks", "listed", "dense"]), JUNK),
+    "contact_loop": st.one_of(
+        st.none(), st.sampled_from(["blocks", "listed", "dense", "pruned"]), JUNK
+    ),
 }
 
 

@@ -175,9 +175,44 @@ def test_the_listed_loop_equals_the_blocks_bit_for_bit(in_contact, blocks):
     assert changed[-1]  # pressed further: forces, and pairs yield (the sets' update compared)
 
 
+def test_the_dense_loop_equals_one_near_block_bit_for_bit(in_contact):
+    """`dense_pairs` / `dense_energy` (every pair, no conditional: for a GPU) against
+    `blocked_pairs` / `blocked_energy` with the whole set as one block: equal to the bit; and
+    against the default blocks (sums grouped otherwise) to 1e-12 of the largest."""
+    flat, y = in_contact
+    p, gap, k, fy = flat.pairs[0], flat.gap[0], flat.stiffness[0], flat.yield_force[0]
+    x, ps = y.x.at[p.a : p.a + p.n_a, 1].add(0.02), y.permanent_set[0]  # pressed further
+    whole, shape = (p.n_a, p.n_b), _pruning.contact_blocks(p.n_a, p.n_b, 8)
+    assert shape != whole  # the default splits the set
+    pairs = {
+        name: jax.jit(f, static_argnums=(0, 6, 7))
+        for name, f in (("dense", _pruning.dense_pairs), ("blocks", _pruning.blocked_pairs))
+    }
+    energy = {
+        name: jax.jit(f, static_argnums=(0, 5, 6))
+        for name, f in (("dense", _pruning.dense_energy), ("blocks", _pruning.blocked_energy))
+    }
+    d = pairs["dense"](p, x, gap, k, fy, ps, shape, None)
+    assert float(jnp.max(jnp.abs(d[0]))) > 0 and bool(jnp.any(d[1] != ps))  # forces, yields
+    for blocks, exact in ((whole, True), (shape, False)):
+        b = pairs["blocks"](p, x, gap, k, fy, ps, blocks, None)
+        e = energy["dense"](p, x, gap, k, d[1], blocks, None)
+        e_b = energy["blocks"](p, x, gap, k, d[1], blocks, None)
+        for name, u, v in zip(
+            ("force", "set", "total", "dissipated", "energy"), (*d, e), (*b, e_b), strict=True
+        ):
+            if exact:
+                np.testing.assert_array_equal(u, v, err_msg=name)
+            else:
+                np.testing.assert_allclose(
+                    u, v, rtol=0, atol=1e-12 * float(jnp.max(jnp.abs(v))), err_msg=name
+                )
+
+
 def test_contact_loop_is_checked():
-    with pytest.raises(ValueError, match="contact_loop must be None or one of 'blocks', 'listed'"):
-        m.Settings(contact_loop="dense")
+    allowed = "contact_loop must be None or one of 'blocks', 'listed', 'dense'"
+    with pytest.raises(ValueError, match=allowed):
+        m.Settings(contact_loop="pruned")
     paper, finer = m.Mesh(), m.Mesh(ring_segments=60, beam_contact_segments=80)
     assert _sweep._sweep_settings(m.Settings(), paper).contact_loop == "blocks"
     assert _sweep._sweep_settings(m.Settings(), finer).contact_loop == "listed"  # 61 x 81
@@ -186,8 +221,8 @@ def test_contact_loop_is_checked():
     assert m.Settings().contact_loop is None  # simulate: the blocks (reverse mode works)
 
 
-@pytest.mark.parametrize("listed", [False, True])
-def test_forward_mode_through_the_pruned_contact_equals_the_dense_one(dense, listed):
+@pytest.mark.parametrize("loop", ["blocks", "listed"])
+def test_forward_mode_through_the_pruned_contact_equals_the_dense_one(dense, loop):
     """jvp of 400 substeps of a batch in contact (blocks skipped and evaluated) along x, with
     a conditional per block and with the listed loop (forward mode works through both)."""
     from msfd_jax import _queue
@@ -208,7 +243,7 @@ def test_forward_mode_through_the_pruned_contact_equals_the_dense_one(dense, lis
     def advance(steps):
         def loop(x):
             def body(i, s):
-                return _engine.verlet_substep(flat, s, i * h, h, clock.tolerance, listed)
+                return _engine.verlet_substep(flat, s, i * h, h, clock.tolerance, loop)
 
             out = jax.lax.fori_loop(0, steps, body, eqx.tree_at(lambda s: s.x, y, x))
             return out.x, jnp.sum(out.contact, 0)
