@@ -16,7 +16,8 @@ would not fit is skipped and said so; results are written after every stage):
    (benchmarks/results/gpu_reference.json, written by ``--platform cpu --stages
    reference``): |fraction differences| in K0 and step counts; the showcase's warm time.
 3. **sweep**: whole sweeps (`msfd_jax.sweep`, default settings but the contact loop, one
-   worker) of `--sweep-n` collisions at the best (loop, B) of the scan (or `--sweep-slots`):
+   worker) of `--sweep-n` collisions (default B and 4 B) at the best (loop, B) of the scan
+   (or `--sweep-slots`):
    collisions/s and µs per collision-step without compilation, and the compile time.
 
 Without a GPU it says so, measures nothing and writes that to the results file.
@@ -329,7 +330,7 @@ def main() -> None:
     parser.add_argument("--segments", type=int, default=5, help="timed segments per point")
     parser.add_argument(
         "--sweep-n", nargs="*", type=int, default=None, help="collisions per whole sweep"
-    )  # default: the best B
+    )  # default: the best B and 4 B (slots refilled)
     parser.add_argument("--sweep-slots", type=int, default=None)
     parser.add_argument(
         "--stages", nargs="+", default=["scan", "check", "sweep"],
@@ -422,16 +423,20 @@ def main() -> None:
             out = attempt("check", 90.0, check, loop)
             if out is not None:
                 state["check"] = out
+                report(args, head, state)
         state["sweeps"] = []
         if "sweep" in args.stages and (best is not None or args.sweep_slots):
             b = args.sweep_slots or best["slots"]
             loop = best["loop"] if best is not None else args.loops[0]
-            for n in args.sweep_n if args.sweep_n is not None else [b]:
-                per_step = best["us_per_collision_step"] if best else 1.0
-                need = 60.0 + 1.5 * n * 40_000 * per_step * 1e-6  # ~40k steps a collision
+            for n in args.sweep_n if args.sweep_n is not None else [b, 4 * b]:
+                per_step = best["us_per_collision_step"] if best else 0.1
+                # ~24k Verlet steps a collision (every attempt) on this grid; the tail: the
+                # longest chain of attempts, ~270k steps, at >= 70 us a step on the GPU
+                need = 60.0 + 1.5 * (n * 24_000 * per_step * 1e-6 + 270_000 * 70e-6)
                 r = attempt(f"sweep {loop} B={b} n={n}", need, whole_sweep, loop, b, n)
                 if r is not None:
                     state["sweeps"].append(r)
+                    report(args, head, state)
     report(args, head, state)
     print(args.out.read_text())
 

@@ -31,7 +31,7 @@ from ._engine import BatchState, initial_state, kinetic, make_clock, pair_forces
 from ._flat import FlatScene, batch_scenes
 from ._params import CollisionParams, Mesh
 from ._scene import _ring_on_beam, smoothed
-from ._simulate import Settings, Solution
+from ._simulate import Settings, Solution, platform
 
 DEFAULT_SLOTS = 32  # the fastest of 16, 32, 64 per collision-step (benchmarks/slot_cost.py)
 MIN_SLOTS = 16
@@ -191,10 +191,11 @@ def run_queue(
     idle at the end, waits for a tail program's compilation),
     the compile and run times (run time: wall time of the whole queue, compile excluded).
 
-    The tail (on a CPU): once the queue is empty and at most half of a worker's slots still
-    run, their collisions move into a program of fewer slots (the next power of two, down to
-    `TAIL_SLOTS`; compiled when first needed, its compilation counted as compile time): the
-    tail of a sweep no longer pays for stopped slots. A collision's result does not depend
+    The tail: once the queue is empty and at most half of a worker's slots still run (on a
+    GPU: a quarter, `_tail_size_gpu`), their collisions move into a program of fewer slots
+    (the next power of two, down to `TAIL_SLOTS`, on a GPU `GPU_TAIL_FLOOR`; compiled when
+    first needed, its compilation counted as compile time): the tail of a sweep no longer
+    pays for stopped slots. A collision's result does not depend
     on its slot or the slot count (tests/test_sweep.py).
     """
     n = len(dt_critical)
@@ -222,10 +223,7 @@ def run_queue(
             got = [queue.popleft() for _ in range(min(count, len(queue)))]
         return [r for r, _ in got], [a for _, a in got]
 
-    # The tail moves to fewer slots on a CPU only: there a substep's cost grows with its
-    # slots, while on an accelerator a substep of a few slots costs about what one of many
-    # does (kernel launches, not lanes) and each smaller size would cost a compilation.
-    compact = _platform() == "cpu"
+    on_cpu = platform() == "cpu"
     compiled: list[float] = []  # seconds of each program size's compilation
     programs: dict[int, tuple] = {}
     compiling = threading.Lock()
@@ -335,7 +333,7 @@ def run_queue(
                 slot_row[fill] = rows
                 slot_attempt[fill] = attempts
             running, size = int((slot_row >= 0).sum()), len(slot_row)
-            smaller = _tail_size(running, size) if compact else size
+            smaller = _tail_size(running, size) if on_cpu else _tail_size_gpu(running, size)
             if not rows and smaller < size:  # the tail: the queue is empty
                 state = (flat, clock, y)
                 (flat, clock, y), slot_row, busy, slot_attempt = shrink(
@@ -379,15 +377,6 @@ def run_queue(
     )  # fmt: skip
 
 
-def _platform() -> str:
-    """The platform the queue's programs run on: the default device's (``jax.default_device``
-    when set, as benchmarks/gpu_throughput.py does)."""
-    device = jax.config.jax_default_device
-    if device is None:
-        return jax.default_backend()
-    return device if isinstance(device, str) else device.platform
-
-
 def _tail_size(running: int, size: int) -> int:
     """The slots for `running` collisions of a tail now on `size` slots: halved while at most
     half run, down to `MIN_SLOTS`; then, with at most `TAIL_SLOTS` running, the smallest power
@@ -399,6 +388,22 @@ def _tail_size(running: int, size: int) -> int:
     if running <= TAIL_SLOTS:
         size = min(size, 1 << (running - 1).bit_length())
     return size
+
+
+# On a GPU a substep's time grows with the slots down to about this many and no further:
+# 65.5, 235.5 and 1719 us for 1024, 8192 and 65536 slots on an H200, and a single collision's
+# substep took 73 us (benchmarks/results/gpu.md).
+GPU_TAIL_FLOOR = 1024
+
+
+def _tail_size_gpu(running: int, size: int) -> int:
+    """The slots for `running` collisions of a tail on `size` slots on a GPU: once at most a
+    quarter run, the smallest power of two that holds them, not below `GPU_TAIL_FLOOR`. Steps
+    of four (not halvings) because each new size is a compilation (6-14 s on an H200); with
+    them the busy slots never fall below a quarter until the floor."""
+    if running == 0 or size <= GPU_TAIL_FLOOR or running > size // 4:
+        return size
+    return max(GPU_TAIL_FLOOR, 1 << (running - 1).bit_length())
 
 
 def _slot_count(n: int, slots: int) -> int:

@@ -221,6 +221,20 @@ def test_contact_loop_is_checked():
     assert m.Settings().contact_loop is None  # simulate: the blocks (reverse mode works)
 
 
+def test_a_sweep_on_an_accelerator_takes_the_dense_loop(monkeypatch):
+    """On a GPU a sweep's default contact loop is the dense one (no conditional), whatever
+    the mesh; a loop asked for is kept; on a CPU the blocks and listed loops stay."""
+    from msfd_jax import _simulate
+
+    paper, finer = m.Mesh(), m.Mesh(ring_segments=60, beam_contact_segments=80)
+    assert _simulate.platform() == "cpu"
+    monkeypatch.setattr(_simulate, "platform", lambda: "gpu")
+    assert _sweep._sweep_settings(m.Settings(), paper).contact_loop == "dense"
+    assert _sweep._sweep_settings(m.Settings(), finer).contact_loop == "dense"
+    blocks = m.Settings(contact_loop="blocks")
+    assert _sweep._sweep_settings(blocks, paper).contact_loop == "blocks"
+
+
 @pytest.mark.parametrize("loop", ["blocks", "listed"])
 def test_forward_mode_through_the_pruned_contact_equals_the_dense_one(dense, loop):
     """jvp of 400 substeps of a batch in contact (blocks skipped and evaluated) along x, with

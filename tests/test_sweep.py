@@ -288,6 +288,26 @@ def test_the_scalar_tail_gives_the_same_rows(one_worker, monkeypatch):
             np.testing.assert_array_equal(np.asarray(wide[key]), np.asarray(one_worker[key]), key)
 
 
+def test_the_gpu_tail_rule_gives_the_same_rows(one_worker, monkeypatch):
+    """On a GPU the tail moves to fewer slots in steps of four down to `GPU_TAIL_FLOOR`
+    (`_queue._tail_size_gpu`); run here through that rule (the platform and the floor
+    patched), the rows equal the CPU rule's, every column."""
+    from msfd_jax import _queue
+
+    floor = _queue.GPU_TAIL_FLOOR
+    assert _queue._tail_size_gpu(8192, 8192) == 8192  # all running
+    assert _queue._tail_size_gpu(2049, 8192) == 8192  # more than a quarter
+    assert _queue._tail_size_gpu(2048, 8192) == 2048 and _queue._tail_size_gpu(600, 8192) == floor
+    assert _queue._tail_size_gpu(3, floor) == floor and _queue._tail_size_gpu(0, 8192) == 8192
+    monkeypatch.setattr(_queue, "platform", lambda: "gpu")
+    monkeypatch.setattr(_queue, "GPU_TAIL_FLOOR", 4)
+    gpu = sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=1)
+    assert _sweep.LAST_TIMING["compactions"] == 1  # 16 slots, then 4
+    for key in OUTPUTS:
+        if key != "wall_time_s":
+            np.testing.assert_array_equal(np.asarray(gpu[key]), np.asarray(one_worker[key]), key)
+
+
 def test_a_retry_runs_in_the_queue_as_it_would_alone(monkeypatch):
     """A row rerun at half the step (issue 12) goes back into the running queue (no pass of
     its own after the sweep) and gives exactly the row of a sweep at that step."""
