@@ -23,7 +23,9 @@ would not fit is skipped and said so; results are written after every stage):
 Without a GPU it says so, measures nothing and writes that to the results file.
 ``--platform cpu`` runs the same stages on the CPU (small sizes) to check the script.
 
-    python benchmarks/gpu_throughput.py                    # writes benchmarks/results/gpu.md
+    python benchmarks/gpu_throughput.py          # writes benchmarks/results/gpu_latest.md
+                                                 # (and .json; results/gpu.md summarises the
+                                                 # H200's runs, which --out named apart)
     python benchmarks/gpu_throughput.py --platform cpu --slots 16 32 --sweep-n 64 \\
         --segments 2 --out /tmp/gpu.md                     # the script, on the CPU
     python benchmarks/gpu_throughput.py --platform cpu --stages reference  # the check's file
@@ -337,7 +339,7 @@ def main() -> None:
         help="scan, check, sweep; reference (on the CPU: the check's reference file)",
     )  # fmt: skip
     parser.add_argument("--budget-s", type=float, default=420.0)
-    parser.add_argument("--out", type=Path, default=RESULTS / "gpu.md")
+    parser.add_argument("--out", type=Path, default=RESULTS / "gpu_latest.md")
     args = parser.parse_args()
     start = time.perf_counter()
     import jax
