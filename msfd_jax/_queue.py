@@ -34,6 +34,10 @@ from ._scene import _ring_on_beam, smoothed
 from ._simulate import Settings, Solution, platform
 
 DEFAULT_SLOTS = 32  # the fastest of 16, 32, 64 per collision-step (benchmarks/slot_cost.py)
+# On an accelerator: 0.0287 us per collision-step at 8192 slots against 0.0639 at 1024 and
+# 0.0262 at 65536 on an H200 (benchmarks/results/gpu.md); 8192 keeps a tail of long
+# collisions on fewer slots sooner and the memory small.
+GPU_DEFAULT_SLOTS = 8192
 MIN_SLOTS = 16
 # A tail of at most TAIL_SLOTS running collisions moves to that many slots: below the vector
 # width XLA:CPU runs scalar code whose cost grows with the slots (benchmarks/slot_cost.py: a
@@ -142,6 +146,12 @@ def _solution(flat, y, kin, block, forces, dt, dt_crit, k0, substeps) -> Solutio
         shape_ts=np.zeros((len(k0), 0)),
         shapes=(),
     )
+
+
+def default_slots() -> int:
+    """Slots per worker when a sweep is not told: `DEFAULT_SLOTS` on a CPU,
+    `GPU_DEFAULT_SLOTS` on an accelerator (the default device's platform)."""
+    return DEFAULT_SLOTS if platform() == "cpu" else GPU_DEFAULT_SLOTS
 
 
 def default_workers() -> int:

@@ -33,7 +33,7 @@ from ._outputs import FRACTION_KEYS, balance_warning, diagnose, fractions
 from ._params import CollisionParams, Mesh, validate
 from ._progress import SweepProgress as _SweepProgress
 from ._provenance import mesh_json
-from ._queue import DEFAULT_SLOTS, default_workers, run_queue
+from ._queue import DEFAULT_SLOTS, default_slots, default_workers, run_queue
 from ._results import RESULTS
 from ._retry import RETRY_OUTPUTS, Attempts, assemble, solve_with_retries, with_retry_columns
 from ._scene import _ring_on_beam
@@ -65,6 +65,7 @@ OUTPUTS = (*SOLVED_OUTPUTS, *RETRY_OUTPUTS)  # retries, safety: issue 12 (`_retr
 SWEEP_SETTINGS = Settings(history_points=2, shape_times=())
 MAX_CHUNK = 65_536  # slots or vmapped rows per compiled call (chunks are padded to it)
 DEFAULT_CHUNK = DEFAULT_SLOTS  # slots per worker: the fastest per collision-step on one core
+# (None: this on a CPU, `_queue.GPU_DEFAULT_SLOTS` on an accelerator; `_queue.default_slots`)
 # compile and run time of the last in-process sweep (slots, segments, compile_s, run_s, and
 # steps: the Verlet steps of every attempt, the reruns at a smaller step included; those run
 # in the same queue, issue 12)
@@ -134,7 +135,7 @@ def sweep(
     grid_or_list: Mapping[str, Any] | Sequence[Mapping[str, Any]],
     mesh: Mesh = Mesh(),
     settings: Settings = SWEEP_SETTINGS,
-    chunk_size: int = DEFAULT_CHUNK,
+    chunk_size: int | None = None,
     progress: bool = False,
     *,
     base: CollisionParams = CollisionParams(),
@@ -162,7 +163,8 @@ def sweep(
       program), so that one bound, and so one compiled program, serves all chunks.
     - `chunk_size`: slots of the batched core (rounded up to a power of two, at least 16):
       collisions that run together, each stopped slot refilled from the queue (memory is one
-      batch of slots). With `shard`, collisions per sharded chunk.
+      batch of slots). None: 32 on a CPU, 8192 on a GPU (`_queue.default_slots`). With
+      `shard`, collisions per sharded chunk.
     - `progress`: a progress bar on stderr (tqdm; off by default, on in the CLI).
     - `shard`: split each chunk across all JAX devices with `jax.shard_map` (each device runs
       its own stopping loop); `chunk_size` must then be a multiple of the device count.
@@ -191,6 +193,7 @@ def sweep(
     """
     columns, grid = collisions(grid_or_list, base)
     n = len(columns["thickness_ratio"])
+    chunk_size = default_slots() if chunk_size is None else chunk_size
     task_size = chunk_size if task_size is None else task_size
     _check_sweep(columns, mesh, chunk_size, shard, contact_smoothing, yield_smoothing, task_size)
     _check_workers(workers)
@@ -306,7 +309,7 @@ def _solve_collisions(
     mesh: Mesh = Mesh(),
     settings: Settings = SWEEP_SETTINGS,
     *,
-    chunk_size: int = DEFAULT_CHUNK,
+    chunk_size: int | None = None,
     contact_smoothing: float = 0.0,
     yield_smoothing: float = 0.0,
     shard: bool = False,
@@ -331,7 +334,7 @@ def _solve_collisions(
     params = CollisionParams(**columns)
     validate(params, mesh)
     smoothing = _smoothing_arrays(contact_smoothing, yield_smoothing)
-    chunk_size, devices = _chunking(chunk_size, shard)
+    chunk_size, devices = _chunking(default_slots() if chunk_size is None else chunk_size, shard)
     workers = _check_workers(workers) or default_workers()
     settings = _sweep_settings(settings, mesh)
     n = len(columns["thickness_ratio"])

@@ -288,6 +288,15 @@ def test_the_scalar_tail_gives_the_same_rows(one_worker, monkeypatch):
             np.testing.assert_array_equal(np.asarray(wide[key]), np.asarray(one_worker[key]), key)
 
 
+def test_the_default_slots_follow_the_platform(monkeypatch):
+    """A sweep not told its slots takes 32 per worker on a CPU and 8192 on a GPU."""
+    from msfd_jax import _queue
+
+    assert _queue.default_slots() == _queue.DEFAULT_SLOTS == 32
+    monkeypatch.setattr(_queue, "platform", lambda: "gpu")
+    assert _queue.default_slots() == _queue.GPU_DEFAULT_SLOTS == 8192
+
+
 def test_the_gpu_tail_rule_gives_the_same_rows(one_worker, monkeypatch):
     """On a GPU the tail moves to fewer slots in steps of four down to `GPU_TAIL_FLOOR`
     (`_queue._tail_size_gpu`); run here through that rule (the platform and the floor

@@ -25,6 +25,7 @@ import numpy as np
 from .. import _cluster
 from .._outputs import FRACTION_KEYS
 from .._params import CollisionParams
+from .._queue import GPU_DEFAULT_SLOTS
 from .._sweep import DEFAULT_CHUNK, INPUTS, SweepTable, sweep
 from . import common, sweep_si
 
@@ -64,7 +65,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     # a sweep keeps final values only: two history samples and no shapes unless asked
     parser.set_defaults(history_points=2, shape_times=())
     batch = parser.add_argument_group("batching")
-    batch.add_argument("--chunk-size", type=int, default=DEFAULT_CHUNK, help="per compiled call")
+    batch.add_argument(
+        "--chunk-size", type=int, default=None,
+        help=f"slots per worker (default: {DEFAULT_CHUNK} on a CPU, {GPU_DEFAULT_SLOTS} on a GPU)",
+    )  # fmt: skip
     batch.add_argument(
         "--workers",
         type=int,
