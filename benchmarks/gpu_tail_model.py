@@ -30,10 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
+from msfd_jax._queue import GPU_TAIL_FLOOR as FLOOR
+from msfd_jax._queue import _tail_size_gpu  # the queue's own rule
+
 RESULTS = Path(__file__).resolve().parent / "results"
 SEGMENT = 512  # Verlet steps a segment
 SCAN = {1024: 65.5, 8192: 235.5, 65536: 1719.0}  # µs per Verlet step of B slots, H200
-FLOOR = 1024
 
 
 def step_us(b: int) -> float:
@@ -46,12 +48,6 @@ def extrapolated(b: int) -> float:
         return step_us(b)
     slope = np.log(SCAN[65536] / SCAN[8192]) / np.log(8)
     return SCAN[65536] * (b / 65536) ** slope
-
-
-def tail_size(running: int, size: int) -> int:  # as _queue._tail_size_gpu
-    if running == 0 or size <= FLOOR or running > size // 4:
-        return size
-    return max(FLOOR, 1 << (running - 1).bit_length())
 
 
 def replay(jobs: list[tuple[int, int]], slots: int, tail: bool) -> dict:
@@ -74,7 +70,7 @@ def replay(jobs: list[tuple[int, int]], slots: int, tail: bool) -> dict:
                 queue.appendleft((job[1], 0))  # the retry: front of the queue
         running = still
         if tail and not queue:
-            size = tail_size(len(running), size)
+            size = _tail_size_gpu(len(running), size)
             sizes.add(size)
     return dict(seconds=seconds, segments=segments, sizes=sorted(sizes, reverse=True))
 
