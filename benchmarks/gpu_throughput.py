@@ -127,6 +127,7 @@ def computed(loop: str | None) -> dict:
     first attempts) and regression_baseline.py's 64-collision sweep, with the showcase's
     warm wall time."""
     import msfd_jax as m
+    from msfd_jax import _sweep
     from msfd_jax._attempts import first_attempts
     from msfd_jax.studies.scripts import regression_baseline as rb
 
@@ -144,8 +145,6 @@ def computed(loop: str | None) -> dict:
     with first_attempts():
         table = m.sweep(rb.SWEEP_GRID, m.Mesh(), settings, progress=False)
     out["sweep_s"] = time.perf_counter() - tick
-    from msfd_jax import _sweep
-
     out["sweep_timing"] = dict(_sweep.LAST_TIMING)
     out["sweep_loop"] = settings.contact_loop or "default"
     out["sweep"] = [
@@ -210,7 +209,7 @@ def whole_sweep(loop: str, b: int, n: int) -> dict:
     import msfd_jax as m
     from msfd_jax import _sweep
 
-    settings = dataclasses.replace(_sweep.SWEEP_SETTINGS, contact_loop=loop)
+    settings = _sweep_settings(loop)
     tick = time.perf_counter()
     table = m.sweep(grid(n), m.Mesh(), settings, chunk_size=b, workers=1, progress=False)
     wall = time.perf_counter() - tick

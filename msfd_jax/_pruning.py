@@ -167,11 +167,18 @@ def dense_pairs(p: PairLayout, x, gap, k, fy, ps, blocks, width):
     return force, new_set, f_sum, dissipated
 
 
+def _block_energy(xa, xb, ps, k, gap, rows, cols, width):
+    """One block's stored contact energy per collision (B,) (see `_block_response`)."""
+    (i0, i1), (j0, j1) = rows, cols
+    delta, _ = pair_geometry(xa[i0:i1], xb[j0:j1], gap)
+    sl = (slice(i0, i1), slice(j0, j1))
+    return jnp.sum(contact_energy(delta, ps[sl], k[sl], width), axis=(0, 1))
+
+
 def dense_energy(p: PairLayout, x, gap, k, ps, blocks, width):
     """A node-to-node set's stored energy (B,), every pair evaluated (`dense_pairs`)."""
     xa, xb = x[p.a : p.a + p.n_a], x[p.b : p.b + p.n_b]
-    delta, _ = pair_geometry(xa, xb, gap)
-    return jnp.sum(contact_energy(delta, ps, k, width), axis=(0, 1))
+    return _block_energy(xa, xb, ps, k, gap, (0, p.n_a), (0, p.n_b), width)
 
 
 def blocked_pairs(p: PairLayout, x, gap, k, fy, ps, blocks, width):
@@ -221,10 +228,8 @@ def blocked_energy(p: PairLayout, x, gap, k, ps, blocks, width):
     energy = jnp.zeros(x.shape[-1:])
     for (i0, i1), (j0, j1), near in near_blocks(xa, xb, gap, blocks):
 
-        def stored(xa, xb, ps, k, gap, i0=i0, i1=i1, j0=j0, j1=j1):
-            delta, _ = pair_geometry(xa[i0:i1], xb[j0:j1], gap)
-            sl = (slice(i0, i1), slice(j0, j1))
-            return jnp.sum(contact_energy(delta, ps[sl], k[sl], width), axis=(0, 1))
+        def stored(xa, xb, ps, k, gap, rows=(i0, i1), cols=(j0, j1)):
+            return _block_energy(xa, xb, ps, k, gap, rows, cols, width)
 
         energy = energy + jax.lax.cond(
             near, stored, lambda *a: jnp.zeros(x.shape[-1:]), xa, xb, ps, k, gap

@@ -157,7 +157,7 @@ def default_slots() -> int:
 def default_workers() -> int:
     """Worker threads of an in-process sweep: the cores this process may run on (its CPU
     affinity: ``taskset -c 1`` gives 1), one on an accelerator (one device serves them all)."""
-    if jax.default_backend() != "cpu":
+    if platform() != "cpu":
         return 1
     try:
         return max(1, len(os.sched_getaffinity(0)))

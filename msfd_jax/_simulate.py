@@ -69,10 +69,10 @@ def undifferentiated(settings: "Settings", mesh) -> "Settings":
     slots, benchmarks/results/gpu.md)."""
     if settings.contact_loop is not None:
         return settings
+    if platform() != "cpu":
+        return dataclasses.replace(settings, contact_loop="dense")
     pairs = (mesh.ring_segments + 1) * (mesh.beam_contact_segments + 1)
     loop = "listed" if pairs >= LISTED_FROM_PAIRS else "blocks"
-    if platform() != "cpu":
-        loop = "dense"
     return dataclasses.replace(settings, contact_loop=loop)
 
 
