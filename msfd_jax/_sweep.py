@@ -64,8 +64,7 @@ OUTPUTS = (*SOLVED_OUTPUTS, *RETRY_OUTPUTS)  # retries, safety: issue 12 (`_retr
 # so by default it saves two history samples and no shapes (the outputs do not depend on them).
 SWEEP_SETTINGS = Settings(history_points=2, shape_times=())
 MAX_CHUNK = 65_536  # slots or vmapped rows per compiled call (chunks are padded to it)
-DEFAULT_CHUNK = DEFAULT_SLOTS  # slots per worker: the fastest per collision-step on one core
-# (None: this on a CPU, `_queue.GPU_DEFAULT_SLOTS` on an accelerator; `_queue.default_slots`)
+DEFAULT_CHUNK = DEFAULT_SLOTS  # a CPU's slots per worker (None: `_queue.default_slots`)
 # compile and run time of the last in-process sweep (slots, segments, compile_s, run_s, and
 # steps: the Verlet steps of every attempt, the reruns at a smaller step included; those run
 # in the same queue, issue 12)
@@ -163,8 +162,7 @@ def sweep(
       program), so that one bound, and so one compiled program, serves all chunks.
     - `chunk_size`: slots of the batched core (rounded up to a power of two, at least 16):
       collisions that run together, each stopped slot refilled from the queue (memory is one
-      batch of slots). None: 32 on a CPU, 8192 on a GPU (`_queue.default_slots`). With
-      `shard`, collisions per sharded chunk.
+      batch of slots; None: 32 on a CPU, 8192 on a GPU). With `shard`, per sharded chunk.
     - `progress`: a progress bar on stderr (tqdm; off by default, on in the CLI).
     - `shard`: split each chunk across all JAX devices with `jax.shard_map` (each device runs
       its own stopping loop); `chunk_size` must then be a multiple of the device count.
