@@ -10,6 +10,7 @@ per core by default), ``--workers 1`` (one core), and a LocalCluster of two work
     python benchmarks/sweep_1024.py --only plain   # the goal's configuration alone
     python benchmarks/sweep_1024.py --only plain --against SRC --repeats 2
         # this tree against another (`git archive COMMIT | tar -x -C SRC`), side by side
+    python benchmarks/sweep_1024.py --grid small ...   # 16 collisions instead (set-up cost)
 
 With ``--against`` each tree has its own cache; the cold processes run first (this tree, then
 SRC), then the warm ones alternate, the order swapping each round, so a machine that is
@@ -32,6 +33,9 @@ GRID = [
     "--thickness-ratio", "0.25:5:64", "--axial-constraint", "both",
     "--mass-ratio", "5,10,20,40", "--velocity", "0.6,0.82", "-q",
 ]  # fmt: skip
+# `--grid small`: 16 collisions, where a new process's set-up (tracing or loading the
+# queue's programs) weighs most
+SMALL = ["--thickness-ratio", "0.5:4:8", "--axial-constraint", "both", "--mass-ratio", "10", "-q"]
 CONFIGS = {
     "plain msfd sweep (worker threads, one per core)": [],
     "--workers 1 (one core)": ["--workers", "1"],
@@ -40,8 +44,8 @@ CONFIGS = {
 KEYS = dict(zip(("plain", "workers1", "cluster"), CONFIGS, strict=True))
 
 
-def run(extra: list[str], cache: str, src: Path | None = None) -> tuple[float, str]:
-    cmd = [sys.executable, "-m", "msfd_jax.cli", "sweep", *GRID, *extra]
+def run(extra: list[str], cache: str, src: Path | None = None, grid=GRID) -> tuple[float, str]:
+    cmd = [sys.executable, "-m", "msfd_jax.cli", "sweep", *grid, *extra]
     env = {**os.environ, "MSFD_CACHE_DIR": cache}
     if src is not None:  # another source tree first on the path, run from inside it
         extra_path = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
@@ -61,7 +65,11 @@ def main() -> None:
     parser.add_argument("--output", type=Path, default=RESULTS / "sweep_1024.md")
     parser.add_argument("--against", type=Path, metavar="SRC", help="another source tree")
     parser.add_argument("--repeats", type=int, default=1, help="warm processes per tree")
+    parser.add_argument(
+        "--grid", choices=("goal2", "small"), default="goal2", help="goal 2's 1024 or 16"
+    )
     args = parser.parse_args()
+    grid = GRID if args.grid == "goal2" else SMALL
     trees = {"this tree": None}
     if args.against is not None:
         trees[f"against {args.against}"] = args.against.resolve()
@@ -70,12 +78,12 @@ def main() -> None:
         for key in args.only:
             name, extra = KEYS[key], CONFIGS[KEYS[key]]
             caches = {t: f"{cache}/{key}-{i}" for i, t in enumerate(trees)}
-            cold = {t: run(extra, caches[t], src)[0] for t, src in trees.items()}
+            cold = {t: run(extra, caches[t], src, grid)[0] for t, src in trees.items()}
             warm: dict[str, list[float]] = {t: [] for t in trees}
             summary = {}
             for r in range(args.repeats):
                 for t in list(trees)[:: 1 if r % 2 == 0 else -1]:
-                    wall, summary[t] = run(extra, caches[t], trees[t])
+                    wall, summary[t] = run(extra, caches[t], trees[t], grid)
                     warm[t].append(wall)
             for t in trees:
                 label = name if len(trees) == 1 else f"{name}, {t}"
@@ -88,7 +96,7 @@ def main() -> None:
         "",
         f"`python benchmarks/sweep_1024.py {' '.join(sys.argv[1:])}` · {date} · 2 cores",
         "",
-        f"Grid: `msfd sweep {' '.join(GRID)}`",
+        f"Grid: `msfd sweep {' '.join(grid)}`",
         "",
         "| configuration | first process (compiles) s | next processes (cache) s | summary |",
         "|---|---:|---:|---|",

@@ -24,6 +24,8 @@ from typing import Any
 
 import numpy as np
 
+from . import _export
+
 # One intra-op thread per worker process: N processes then share N cores without
 # oversubscription (XLA's CPU client otherwise sizes its pools to every core of the machine).
 WORKER_ENV = {"XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"}
@@ -133,7 +135,9 @@ def use_compile_cache(path: str | Path) -> None:
 
     What ``msfd_jax.cli.common.enable_compilation_cache`` does for the CLI, for a worker:
     equinox's runtime checks switched to ``nan`` unless ``EQX_ON_ERROR`` is set (an
-    executable with host callbacks is never cached), and every program cached.
+    executable with host callbacks is never cached), every program cached, and the traced
+    programs stored with it (`_export`, in its ``exported/`` as the CLI keeps them: a new
+    worker loads the queue's programs instead of tracing them).
     """
     path = str(Path(path).expanduser())
     if path in _CACHE:
@@ -146,4 +150,5 @@ def use_compile_cache(path: str | Path) -> None:
     jax.config.update("jax_compilation_cache_dir", path)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
+    _export.enable(Path(path) / "exported")
     _CACHE.append(path)

@@ -1,8 +1,9 @@
 """Serialized programs (`jax.export`) stored next to the persistent compile cache (issue 11).
 
-A new process that runs a collision would trace diffrax's loop again (seconds) before the
-persistent compilation cache can even be consulted: JAX's cache is keyed by the lowered
-program, which only tracing produces. Here a jitted function's program is traced once,
+A new process that runs a collision, or a sweep (its queue's programs for each slot count,
+`_queue`), would trace diffrax's loop again (seconds) before the persistent compilation
+cache can even be consulted: JAX's cache is keyed by the lowered program, which only
+tracing produces. Here a jitted function's program is traced once,
 serialized with `jax.export` and stored under a key made of everything that decides what
 tracing would give:
 

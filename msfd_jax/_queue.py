@@ -23,6 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array
 
+from . import _export
 from ._attempts import RETRY_FACTOR
 from ._cap import time_cap
 from ._core import solve
@@ -247,14 +248,17 @@ def run_queue(
                 flat, clock, y = state
                 zeros = np.zeros(size, np.int64)
                 p, d, steps, factor = batch_of(zeros, zeros, size)
+                # through the store of serialized programs when it is on (the CLI's): a new
+                # process then loads them instead of tracing diffrax's loop again (`_export`)
+                refill_args = (flat, clock, y, jnp.zeros(size, bool), p, d, mesh, smoothing,
+                               settings, steps, factor)  # fmt: skip
                 programs[size] = (
-                    _segment.lower(flat, clock, y, settings, segment).compile(),
-                    _report.lower(flat, clock, y).compile(),
-                    _refill.lower(
-                        flat, clock, y, jnp.zeros(size, bool), p, d, mesh, smoothing, settings,
-                        steps, factor,
-                    ).compile(),
-                )  # fmt: skip
+                    _export.compile_program(
+                        _segment, flat, clock, y, settings, segment, name="queue_segment"
+                    ),
+                    _export.compile_program(_report, flat, clock, y, name="queue_report"),
+                    _export.compile_program(_refill, *refill_args, name="queue_refill"),
+                )
                 compiled.append(time.perf_counter() - tick)
             return programs[size]
 
@@ -264,7 +268,8 @@ def run_queue(
         first, attempts = take(b)
         if first:  # (64 collisions, 3 workers of 32 slots: the third has none)
             p, d, steps, factor = batch_of(first, attempts)
-            state = _start(p, d, mesh, smoothing, settings, steps, factor)
+            state = _export.call(_start, p, d, mesh, smoothing, settings, steps, factor,
+                                 name="queue_start")  # fmt: skip
             starts.append((first, state))
     workers = len(starts)
     flat, clock, y = starts[0][1]

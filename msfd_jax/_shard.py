@@ -13,6 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from . import _export
 from ._cap import expected_duration, time_cap
 from ._dynamics import critical_step
 from ._outputs import fractions
@@ -37,8 +38,14 @@ def _run_chunk(function, columns, rows: range, chunk_size: int, *args):
     return jax.tree_util.tree_map(lambda a: np.asarray(a)[: len(index)], out)
 
 
-@eqx.filter_jit
 def _critical_chunk(params: CollisionParams, mesh: Mesh, smoothing):
+    """Each collision's (stability limit, derived cap, expected duration); through the
+    store of serialized programs when it is on (`_export`)."""
+    return _export.call(_critical_program, params, mesh, smoothing, name="critical_chunk")
+
+
+@eqx.filter_jit
+def _critical_program(params: CollisionParams, mesh: Mesh, smoothing):
     def one(p):
         scene = ring_on_beam(p, mesh, contact_smoothing=smoothing[0])
         return critical_step(scene), time_cap(scene), expected_duration(scene)

@@ -5,6 +5,7 @@ and off again (`store` fixture). The solver's program is compiled once here (abo
 CPU on SMALL_MESH); the fallbacks are checked on the small critical-step program.
 """
 
+import json
 import subprocess
 import sys
 
@@ -139,3 +140,76 @@ def test_call_memoises_and_steps_aside_under_transformations(store, scene):
     # under jit the arguments are tracers: plain `fn(*args)`, nothing stored
     value = jax.jit(lambda s: _export.call(_critical, s, name="critical_step"))(scene)
     assert float(value) == float(_critical(scene)) and len(_export._programs) == 1
+
+
+_SWEEP = """
+import dataclasses
+import json
+import sys
+from pathlib import Path
+
+import equinox._errors
+import jax
+
+jax.config.update("jax_enable_x64", True)
+equinox._errors.EQX_ON_ERROR = "nan"  # as the CLI, before anything is traced
+import msfd_jax as m
+from msfd_jax import _export
+from msfd_jax._sweep import SWEEP_SETTINGS
+
+if sys.argv[1] != "-":
+    _export.enable(Path(sys.argv[1]))
+sources = []
+compile_program = _export.compile_program
+
+
+def recording(fn, *args, name):
+    program = compile_program(fn, *args, name=name)
+    sources.append([name, program.source, program.reason])
+    return program
+
+
+_export.compile_program = recording  # `_queue` and `_export.call` look it up when called
+table = m.sweep(
+    {"thickness_ratio": [1.0, 2.5, 4.0], "axial_constraint": [0, 1]},
+    mesh=m.Mesh(6, 8, 2),
+    settings=dataclasses.replace(SWEEP_SETTINGS, t_max=1.5),
+    contact_smoothing=1e-3,
+    workers=1,
+)
+columns = {
+    k: [float(x) for x in v] for k, v in table.columns.items()
+    if k != "wall_time_s" and getattr(v, "dtype", None) is not None and v.dtype.kind in "fiub"
+}
+print(json.dumps({"sources": sources, "columns": columns}))
+"""
+
+
+def _sweep_in_a_new_process(store) -> dict:
+    done = subprocess.run(
+        [sys.executable, "-c", _SWEEP, str(store)],
+        capture_output=True, text=True, timeout=900, cwd=store if store != "-" else None,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+def test_a_sweep_stores_its_programs_and_a_new_process_loads_them(tmp_path):
+    # issue 11: a new `msfd sweep` process traced the queue's programs again (its segment
+    # alone ~1.1 s per slot count); with the CLI's store they are loaded like `simulate`'s
+    first = _sweep_in_a_new_process(tmp_path)
+    names = {name for name, _, _ in first["sources"]}
+    assert names == {
+        "critical_chunk",
+        "queue_start",
+        "queue_segment",
+        "queue_report",
+        "queue_refill",
+    }
+    assert all(source == "exported" for _, source, _ in first["sources"]), first["sources"]
+    second = _sweep_in_a_new_process(tmp_path)
+    assert [n for n, _, _ in second["sources"]] == [n for n, _, _ in first["sources"]]
+    assert all(source == "loaded" for _, source, _ in second["sources"]), second["sources"]
+    traced = _sweep_in_a_new_process("-")  # no store: every program traced, as before
+    assert all(source == "traced" for _, source, _ in traced["sources"])
+    assert second["columns"] == traced["columns"] == first["columns"]  # bitwise, every row
