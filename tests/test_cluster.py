@@ -70,6 +70,9 @@ def test_cluster_sweep_equals_in_process(client, cache, reference, tmp_path):
     table = cluster_sweep(client, cache, output=tmp_path / "rows.parquet")
     assert_same_rows(table, reference)
     assert table.computed.all()
+    # the workers stored the queue's programs with the cache (`_export`): later workers,
+    # and the tests below, load them instead of tracing
+    assert any((cache / "exported").glob("queue_segment-*.jaxexport"))
     # the Parquet store ends as one table in the grid's order
     store = tmp_path / "rows.parquet"
     assert sorted(p.name for p in store.iterdir()) == ["meta.json", "table.parquet"]
