@@ -15,25 +15,11 @@ from __future__ import annotations
 
 import datetime
 import os
-import time
 
 import _bench
+from sweep_budget import GRID  # goal 2's grid, as sweep_1024.py's CLI gives it
 
 ROUNDS = 3
-GRID = {
-    "thickness_ratio": [0.25 + i * (5.0 - 0.25) / 63 for i in range(64)],
-    "axial_constraint": [0.0, 1.0],
-    "mass_ratio": [5.0, 10.0, 20.0, 40.0],
-    "velocity": [0.6, 0.82],
-}
-
-
-def _timed(f, *args) -> float:
-    import jax
-
-    tick = time.perf_counter()
-    jax.block_until_ready(f(*args))
-    return time.perf_counter() - tick
 
 
 def main() -> None:
@@ -54,17 +40,15 @@ def main() -> None:
     def stability_pass():
         return [_run_chunk(_critical_chunk, columns, c, b, mesh, smoothing) for c in chunks]
 
-    stability_pass()  # compiles
-    passes = [_timed(stability_pass) for _ in range(ROUNDS)]
+    _, times = _bench.interleaved_times({"pass": (stability_pass,)}, ROUNDS)  # after compiling
+    passes = times["pass"]
 
     rng = np.random.default_rng(0)
     stiff = rng.standard_normal((b, 84, 84))
     stiff = jnp.asarray(stiff + stiff.transpose(0, 2, 1))
     eig = jax.jit(jax.vmap(lambda k: jnp.max(jnp.linalg.eigvalsh(k))))
-    per_matrix = {}
-    for size in (1, b):
-        jax.block_until_ready(eig(stiff[:size]))
-        per_matrix[size] = 1e3 * min(_timed(eig, stiff[:size]) for _ in range(7)) / size
+    eig_best = _bench.interleaved_best({size: (eig, stiff[:size]) for size in (1, b)}, 7)
+    per_matrix = {size: 1e3 * t / size for size, t in eig_best.items()}
 
     date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     best = min(passes)
@@ -82,7 +66,7 @@ def main() -> None:
         f"{per_matrix[b]:.2f} ms at B = {b} (best of 7).",
         "",
         "Not spread over threads: two threads running the pass's program at once deadlocked "
-        "on jax 0.10.2's CPU client (`msfd_jax/_shard.py`, `_critical_chunk`).",
+        "(once, when tried) on jax 0.10.2's CPU client (`msfd_jax/_shard.py`, `_critical_chunk`).",
     ]  # fmt: skip
     _bench.write_result("stability_pass.md", lines)
 

@@ -16,7 +16,6 @@ only when a cluster is used.
 
 from __future__ import annotations
 
-import os
 import re
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -131,24 +130,14 @@ _CACHE: list[str] = []
 
 
 def use_compile_cache(path: str | Path) -> None:
-    """JAX's persistent compile cache in `path` for this process (once per process).
-
-    What ``msfd_jax.cli.common.enable_compilation_cache`` does for the CLI, for a worker:
-    equinox's runtime checks switched to ``nan`` unless ``EQX_ON_ERROR`` is set (an
-    executable with host callbacks is never cached), every program cached, and the traced
-    programs stored with it (`_export`, in its ``exported/`` as the CLI keeps them: a new
-    worker loads the queue's programs instead of tracing them).
+    """JAX's persistent compile cache in `path` for this process (once per process), with
+    the store of traced programs in it: what ``msfd_jax.cli.common.enable_compilation_cache``
+    does for the CLI, for a worker (`_export.use_with_compile_cache`: equinox's runtime checks
+    as ``nan`` unless ``EQX_ON_ERROR`` is set, every program cached, and a new worker loads
+    the queue's programs instead of tracing them).
     """
     path = str(Path(path).expanduser())
     if path in _CACHE:
         return
-    import equinox._errors
-    import jax
-
-    if "EQX_ON_ERROR" not in os.environ and hasattr(equinox._errors, "EQX_ON_ERROR"):
-        equinox._errors.EQX_ON_ERROR = "nan"
-    jax.config.update("jax_compilation_cache_dir", path)
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
-    jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
-    _export.enable(Path(path) / "exported")
+    _export.use_with_compile_cache(path)
     _CACHE.append(path)

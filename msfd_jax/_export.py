@@ -56,6 +56,36 @@ def enable(path: str | os.PathLike | None) -> Path | None:
     return _store
 
 
+def use_with_compile_cache(path: str | os.PathLike) -> Path:
+    """JAX's persistent compile cache in `path`, every program cached, and this store in
+    `path`/exported: what a CLI process (`cli.common.enable_compilation_cache`) and a
+    cluster's worker (`_cluster.use_compile_cache`) set up.
+
+    JAX never writes an executable that contains host callbacks to the cache, and equinox's
+    runtime checks (used by diffrax on ``dt0`` and ``SaveAt.ts``) are host callbacks under
+    its default ``EQX_ON_ERROR=raise``; so unless the user chose a mode, they are switched to
+    ``nan``: a failed check then gives NaN, which the solver's non-finite guard reports. Our
+    inputs are validated before they reach diffrax, so these checks cannot fire anyway.
+    """
+    import equinox._errors
+
+    # The public switch is the environment variable EQX_ON_ERROR, but equinox reads it once,
+    # at its own import (equinox/_config.py), and this can only run after `msfd_jax` (hence
+    # diffrax and equinox) is imported. Setting os.environ here would change nothing in this
+    # process and leak into child processes. So the one way is equinox's module-level
+    # default, which `error_if` consults at trace time; it is private, hence guarded: a
+    # future equinox without it only loses the cache, never breaks a run. The jax settings
+    # below are public configuration.
+    if "EQX_ON_ERROR" not in os.environ and hasattr(equinox._errors, "EQX_ON_ERROR"):
+        equinox._errors.EQX_ON_ERROR = "nan"
+    path = Path(path).expanduser()
+    jax.config.update("jax_compilation_cache_dir", str(path))
+    enable(path / "exported")  # serialized programs: no tracing in a new process
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
+    jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
+    return path
+
+
 def store() -> Path | None:
     """The directory of serialized programs, or None when they are off."""
     return _store

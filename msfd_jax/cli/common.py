@@ -272,34 +272,14 @@ def settings_from_args(args: argparse.Namespace) -> m.Settings:
 
 
 def enable_compilation_cache() -> Path:
-    """JAX's persistent compilation cache, so a second process skips compiling (CLI only).
+    """JAX's persistent compilation cache, so a second process skips compiling (CLI only),
+    and the store of traced programs in it, so it skips tracing too.
 
-    The directory is ``$MSFD_CACHE_DIR`` or ``~/.cache/msfd-jax/jax``. JAX never writes an
-    executable that contains host callbacks to the cache, and equinox's runtime checks (used
-    by diffrax on ``dt0`` and ``SaveAt.ts``) are host callbacks under its default
-    ``EQX_ON_ERROR=raise``; so unless the user chose a mode, the CLI switches them to ``nan``:
-    a failed check then gives NaN, which the solver's non-finite guard reports (exit code 3).
-    Our inputs are validated before they reach diffrax, so these checks cannot fire anyway.
+    The directory is ``$MSFD_CACHE_DIR`` or ``~/.cache/msfd-jax/jax``; equinox's runtime
+    checks become NaN unless ``EQX_ON_ERROR`` is set (`_export.use_with_compile_cache` says
+    why): a failed check then gives NaN, which the solver's guard reports (exit code 3).
     """
-    import equinox._errors
-    import jax
-
-    # The public switch is the environment variable EQX_ON_ERROR, but equinox reads it once,
-    # at its own import (equinox/_config.py), and `msfd_jax.cli` can only run after
-    # `msfd_jax` (hence diffrax and equinox) is imported: a package's __init__ runs before
-    # its subpackage. Setting os.environ here would change nothing in this process and leak
-    # into child processes. So the one way is equinox's module-level default, which
-    # `error_if` consults at trace time; it is private, hence guarded: a future equinox
-    # without it only loses the cache, never breaks the CLI. The jax settings below are
-    # public configuration.
-    if "EQX_ON_ERROR" not in os.environ and hasattr(equinox._errors, "EQX_ON_ERROR"):
-        equinox._errors.EQX_ON_ERROR = "nan"
-    path = compilation_cache_dir()
-    jax.config.update("jax_compilation_cache_dir", str(path))
-    _export.enable(path / "exported")  # serialized programs: no tracing in a new process
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
-    jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
-    return path
+    return _export.use_with_compile_cache(compilation_cache_dir())
 
 
 def compilation_cache_dir() -> Path:
