@@ -43,8 +43,9 @@ def _critical_chunk(params: CollisionParams, mesh: Mesh, smoothing):
     store of serialized programs when it is on (`_export`).
 
     Called from one thread only: two threads running this program at once (its eigen-solve
-    is a LAPACK call) deadlocked, once, on jax 0.10.2's CPU client, both waiting for their outputs
-    with no XLA thread at work (a trial of spreading the chunks over the sweep's threads).
+    is a LAPACK call) deadlocked, once, on jax 0.10.2's CPU client, both waiting for their
+    outputs with no XLA thread at work (a trial of spreading the chunks over the sweep's
+    threads).
     """
     return _export.call(_critical_program, params, mesh, smoothing, name="critical_chunk")
 
