@@ -3,6 +3,11 @@
 ``msfd run --json`` records `mesh_json`, `settings_json` and `versions`; ``msfd run
 --from-json`` reads them back with `mesh_from_json` and `settings_from_json`. Every field of
 `Mesh` and `Settings` is written (generically, so a field added later is recorded too).
+
+`dumps` is the one way msfd writes JSON (every ``--json`` output, the sweep's and the
+reproduction's records): strict JSON, so a value that is not a number (a failed run's NaN, a
+setting not given) is ``null``, never the bare ``NaN`` or ``Infinity`` that strict parsers
+refuse.
 """
 
 from __future__ import annotations
@@ -10,6 +15,8 @@ from __future__ import annotations
 import dataclasses
 import datetime
 import importlib.metadata
+import json
+import math
 import platform
 import sys
 from typing import Any
@@ -45,6 +52,28 @@ def versions() -> dict[str, str]:
 def now() -> str:
     """The current time, UTC, ISO 8601."""
     return datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+
+
+def json_ready(value: Any) -> Any:
+    """`value` as plain JSON data: numpy scalars and arrays as Python numbers and lists, tuples
+    as lists, and every non-finite float (NaN, inf: a number that is not there) as None."""
+    if isinstance(value, dict):
+        return {str(k): json_ready(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_ready(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return json_ready(value.tolist())
+    if isinstance(value, np.generic):
+        return json_ready(value.item())
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def dumps(value: Any, **kwargs: Any) -> str:
+    """Strict JSON text of `value` (`json_ready`): ``allow_nan=False``, so a non-finite float
+    that got past `json_ready` (through a ``default``) raises instead of writing ``NaN``."""
+    return json.dumps(json_ready(value), allow_nan=False, **kwargs)
 
 
 def _plain(value: Any) -> Any:

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._provenance import dumps
 from ._table import column, csv_rows
 
 SUFFIXES = (".csv", ".parquet")
@@ -89,7 +90,7 @@ class _Store:
             )
 
     def write_meta(self, meta: dict) -> None:
-        _atomic_write(self.meta_path, json.dumps(meta, indent=1, sort_keys=True) + "\n")
+        _atomic_write(self.meta_path, dumps(meta, indent=1, sort_keys=True) + "\n")
 
 
 class CsvStore(_Store):

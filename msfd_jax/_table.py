@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import math
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -52,12 +53,14 @@ class SweepTable:
         return np.isin(self.columns["result"], FAILED)
 
     def rows(self) -> list[dict[str, Any]]:
-        """The table as a list of flat dicts of Python scalars (JSON-ready)."""
+        """The table as a list of flat dicts of Python scalars (NaN kept: write JSON with
+        `msfd_jax._provenance.dumps`, which makes it null)."""
         names = list(self.columns)
         return [{k: self.columns[k][i].item() for k in names} for i in range(len(self))]
 
     def to_csv(self, path: str | Path) -> Path:
-        """Write a CSV with a header row; floats are written exactly (``repr``)."""
+        """Write a CSV with a header row; floats are written exactly (``repr``), NaN as an
+        empty field (pandas and `read_csv` read it back as NaN)."""
         path = Path(path)
         with path.open("w", newline="") as stream:
             writer = csv.writer(stream)
@@ -93,12 +96,26 @@ class SweepTable:
 
 
 def csv_rows(columns: dict[str, np.ndarray]) -> Iterable[list]:
-    """The rows of `columns` as CSV fields: floats as ``repr`` (read back exactly)."""
+    """The rows of `columns` as CSV fields: floats as ``repr`` (read back exactly), NaN (no
+    number: a setting not given, a failed run's output) as an empty field."""
     names = list(columns)
     n = len(columns[names[0]]) if names else 0
     for i in range(n):
         values = (columns[k][i].item() for k in names)
-        yield [repr(v) if isinstance(v, float) else v for v in values]
+        yield [_field(v) for v in values]
+
+
+def _field(value: Any) -> Any:
+    if isinstance(value, float):
+        return "" if math.isnan(value) else repr(value)
+    return value
+
+
+def _number(value: Any) -> float:
+    """A float field of a CSV (text; empty for NaN, as `csv_rows` writes it) or of Parquet."""
+    if value is None or (isinstance(value, str) and not value.strip()):
+        return math.nan
+    return float(value)
 
 
 def column(name: str, values: Sequence[Any]) -> np.ndarray:
@@ -107,4 +124,4 @@ def column(name: str, values: Sequence[Any]) -> np.ndarray:
         return np.asarray([str(v) for v in values], dtype=str)
     if name in INTEGER_COLUMNS:
         return np.asarray([int(v) for v in values], dtype=np.int64)
-    return np.asarray([float(v) for v in values], dtype=np.float64)
+    return np.asarray([_number(v) for v in values], dtype=np.float64)

@@ -8,14 +8,18 @@ the persistent compile cache (global JAX state) out of the other tests; it has i
 import contextlib
 import io
 import json
+import re
+from pathlib import Path
 
 import equinox._errors
 import jax
+import numpy as np
 import pytest
 
 import msfd_jax as m
 from msfd_jax import _export
 from msfd_jax.cli import enable_compilation_cache, main
+from msfd_jax.cli.common import dumps
 
 SMALL = [
     "--ring-segments=6",
@@ -26,6 +30,16 @@ SMALL = [
     "--shape-times=0.5",
     "--no-cache",
 ]
+
+
+def strict_json(text: str):
+    """Parse `text` as strict JSON: the bare NaN, Infinity, -Infinity of Python's json are
+    refused (a strict parser, as in a browser or jq, refuses them too)."""
+
+    def refuse(constant: str):
+        raise ValueError(f"not JSON: {constant}")
+
+    return json.loads(text, parse_constant=refuse)
 
 
 def _msfd(capsys, *args: str) -> tuple[int, str, str]:
@@ -45,7 +59,7 @@ def json_record():
 
 
 def test_json_is_one_object_with_the_required_keys(json_record):
-    record = json.loads(json_record)  # fails on anything else printed on stdout
+    record = strict_json(json_record)  # fails on anything else printed on stdout
     assert set(m.FRACTION_KEYS) <= set(record["fractions"])
     for key in ("energy_balance_error", "t_end", "steps", "wall_time_s"):
         assert key in record
@@ -53,14 +67,14 @@ def test_json_is_one_object_with_the_required_keys(json_record):
 
 
 def test_json_fractions_close_the_energy_balance(json_record):
-    record = json.loads(json_record)
+    record = strict_json(json_record)
     total = sum(record["fractions"].values())
     assert abs(total - 1.0 - record["energy_balance_error"]) < 1e-9
     assert abs(record["energy_balance_error"]) < 1e-2
 
 
 def test_json_defaults_are_the_showcase(json_record):
-    params = json.loads(json_record)["params"]
+    params = strict_json(json_record)["params"]
     assert params["thickness_ratio"] == 2.5 and params["mass_ratio"] == 10.0
     assert params["velocity"] == 0.82 and params["axial_constraint"] == 1.0
 
@@ -155,3 +169,79 @@ def test_compilation_cache_follows_msfd_cache_dir(monkeypatch, tmp_path):
         for n, v in before.items():
             jax.config.update(n, v)
         _export.enable(store)
+
+
+def test_strict_json_refuses_nan():
+    with pytest.raises(ValueError, match="NaN"):
+        strict_json('{"settings_dt": NaN}')
+    assert strict_json(dumps({"a": float("nan"), "b": [float("inf")]})) == {
+        "a": None,
+        "b": [None],
+    }
+    with pytest.raises(ValueError):  # a NaN that gets past the conversion raises, not written
+        dumps(object(), default=lambda _: float("nan"))
+
+
+def test_bad_input_json_record_is_strict_json(capsys):
+    code, out, _ = _msfd(capsys, "--thickness-ratio", "nan", "--json")
+    assert code == 2
+    record = strict_json(out)
+    assert record["ok"] is False and record["status"] == "bad input"
+
+
+def _nan_rows(*args, **kwargs):
+    nan = float("nan")
+    row = {"name": "x", "verdict": "as expected", "method": "verlet", "ok": True}
+    return [{**row, "energy_balance_error": nan, "t": [nan]}]
+
+
+@pytest.mark.parametrize("study", ["stability", "accuracy"])
+def test_bench_json_is_strict_when_a_number_is_missing(capsys, monkeypatch, study):
+    """A study's row with a NaN (a failed run's error, say) prints as null, not NaN."""
+    from msfd_jax.cli import common
+    from msfd_jax.studies import accuracy, stability
+
+    monkeypatch.setattr(common, "enable_compilation_cache", lambda: None)
+    monkeypatch.setattr(stability, "run_catalogue", _nan_rows)
+    monkeypatch.setattr(accuracy, "study", lambda *a, **k: {"rows": _nan_rows(), "t": np.nan})
+    code = main(["bench", study, "--quick", "--json"])
+    record = strict_json(capsys.readouterr().out)
+    assert code in (0, 1)
+    assert record["rows"][0]["energy_balance_error"] is None
+
+
+# Modules that write JSON a user reads: every one goes through `_provenance.dumps` (strict).
+# stability.py's json.dumps is a child process's row, read back by json.loads, never shown.
+# PENDING: not yet converted by their owners (issue 28 item 5); remove them when they are.
+JSON_WRITERS_EXEMPT = {"msfd_jax/_provenance.py", "msfd_jax/studies/stability.py"}
+PENDING = {"msfd_jax/cli/run.py", "msfd_jax/cli/sweep_si.py", "optimise/_cli.py"}
+
+
+def test_every_json_writer_is_strict():
+    root = Path(__file__).resolve().parent.parent
+    sources = [*root.joinpath("msfd_jax").rglob("*.py"), *root.joinpath("optimise").rglob("*.py")]
+    lax = {
+        path.relative_to(root).as_posix()
+        for path in sources
+        if "scripts" not in path.parts and re.search(r"\bjson\.dumps?\(", path.read_text())
+    }
+    assert lax - JSON_WRITERS_EXEMPT - PENDING == set()
+
+
+@pytest.mark.parametrize("command", ["run", "sweep"])
+def test_beam_width_help_states_its_default_once(capsys, command):
+    assert main([command, "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())  # argparse wraps lines
+    assert text.count("the ring width") == 1, "--beam-width states its default twice"
+
+
+def test_bench_help_lists_every_study(capsys):
+    from msfd_jax.cli import bench
+
+    assert main(["--help"]) == 0
+    line = next(s for s in capsys.readouterr().out.splitlines() if s.strip().startswith("bench"))
+    assert main(["bench", "--help"]) == 0
+    text = capsys.readouterr().out
+    for study in bench.BENCHES:
+        assert study in line and study in text
+    assert "default: none" not in text

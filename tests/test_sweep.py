@@ -6,8 +6,10 @@ the vmapped program is compiled once for the file; the single runs reuse the pro
 other test files compile for `SMALL_MESH` and `SHORT`.
 """
 
+import csv
 import dataclasses
 import json
+import sys
 
 import numpy as np
 import pytest
@@ -18,6 +20,7 @@ from msfd_jax import _shard, _sweep
 from msfd_jax._outputs import FRACTION_KEYS
 from msfd_jax._sweep import INPUTS, OUTPUTS, SWEEP_SETTINGS, SweepTable, collisions, sweep
 from msfd_jax.cli import main
+from msfd_jax.cli import sweep as sweep_command
 
 GRID = {"thickness_ratio": [1.0, 2.5], "axial_constraint": [0.0, 1.0]}
 POINTS = [(1.0, 0.0), (1.0, 1.0), (2.5, 0.0), (2.5, 1.0)]  # C order: last key fastest
@@ -132,6 +135,34 @@ def test_bad_values_refused_before_compiling(spec, match, monkeypatch):
         sweep(spec, SMALL_MESH, SHORT, chunk_size=CHUNK, progress=False)
 
 
+def strict_json(text: str):
+    """Strict JSON (tests/test_cli.py): a bare NaN or Infinity is refused."""
+
+    def refuse(constant: str):
+        raise ValueError(f"not JSON: {constant}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+@pytest.mark.parametrize("missing", [("h5py",), ("h5netcdf",), ("xarray",)])
+def test_netcdf_without_its_modules_is_refused_before_the_sweep(
+    missing, monkeypatch, tmp_path, capsys
+):
+    """Found missing after the sweep, the table would be lost: refused first, exit 2."""
+    for name in ("netCDF4", *missing):  # netCDF4: xarray's other NetCDF-4 engine
+        monkeypatch.setitem(sys.modules, name, None)  # find_spec gives None: not installed
+
+    def ran(*args, **kwargs):
+        raise AssertionError("the sweep ran")
+
+    monkeypatch.setattr(sweep_command, "sweep", ran)
+    path = tmp_path / "grid.nc"
+    code = main(["sweep", "--velocity", "0.8,0.9", "--netcdf", str(path), "--no-cache", "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and missing[0] in err and "pip install 'msfd-jax[sweep]'" in err
+    assert not path.exists()
+
+
 def test_only_a_grid_maps_to_xarray(table):
     rows = SweepTable(dict(table.columns))
     with pytest.raises(ValueError, match="full grid"):
@@ -145,11 +176,24 @@ def test_cli_sweep(table, tmp_path, capsys):
     out = tmp_path / "sweep.csv"
     smooth = ["--contact-smoothing", str(SMOOTH)]
     argv = ["sweep", *grid, *small, *short, *smooth, "--chunk-size", "3", "--no-cache"]
-    assert main([*argv, "--csv", str(out), "--json", "--no-progress"]) == 0
-    rows = json.loads(capsys.readouterr().out)
+    netcdf = tmp_path / "sweep.nc"
+    assert main([*argv, "--csv", str(out), "--netcdf", str(netcdf), "--json", "-q"]) == 0
+    rows = strict_json(capsys.readouterr().out)
     assert [r["steps"] for r in rows] == table["steps"].tolist()
     assert [r["beam_bending"] for r in rows] == table["beam_bending"].tolist()
-    assert len(SweepTable.read_csv(out)) == 4
+    # a setting not given (dt: from --safety; t_max given) is null in JSON, empty in the CSV
+    assert rows[0]["settings_dt"] is None and rows[0]["settings_t_max"] == 1.5
+    with out.open() as stream:
+        first = next(csv.DictReader(stream))
+    assert first["settings_dt"] == "" and first["settings_t_max"] == "1.5"
+    back = SweepTable.read_csv(out)
+    assert len(back) == 4 and np.isnan(back["settings_dt"]).all()
+    xarray = pytest.importorskip("xarray")
+    with xarray.open_dataset(netcdf) as data:  # the [sweep] extra writes it (h5py included)
+        assert data["beam_bending"].shape == (2, 2)
+    # --resume reads the finished table back (empty fields included) and computes nothing
+    assert main([*argv, "--csv", str(out), "--resume", "-q"]) == 0
+    assert "4 of them read back" in capsys.readouterr().out
     # the list form reads the CSV back: same collisions, same numbers
     assert (
         main(

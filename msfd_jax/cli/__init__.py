@@ -13,7 +13,6 @@ Exit codes: 0 success, 2 bad input (argparse or parameter validation), 3 failed 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Callable, Sequence
 
@@ -29,6 +28,7 @@ from .common import (
     add_numerics_arguments,
     checked,
     collision_from_args,
+    dumps,
     enable_compilation_cache,
     mesh_from_args,
     settings_from_args,
@@ -59,7 +59,11 @@ COMMANDS: dict[str, tuple[str, Callable, Callable]] = {
         run.add_arguments,
         run.handle,
     ),
-    "bench": ("recorded studies: msfd bench stability", bench.add_arguments, bench.handle),
+    "bench": (
+        f"recorded studies: msfd bench {{{','.join(bench.BENCHES)}}}",
+        bench.add_arguments,
+        bench.handle,
+    ),
     "sweep": (
         "run a grid or list of collisions, batched (vmap)",
         sweep.add_arguments,
@@ -111,6 +115,8 @@ def _state_defaults(parser: argparse.ArgumentParser) -> None:
     for action in parser._actions:
         if action.help == argparse.SUPPRESS or action.dest in ("help", "version"):
             continue
+        if isinstance(action, argparse._SubParsersAction):  # a required choice: no default
+            continue
         text = action.help or action.dest.replace("_", " ")
         if "default" in text:
             continue
@@ -153,5 +159,5 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"msfd: error: {error}", file=sys.stderr)
         if getattr(args, "json", False) and args.command == "run":
             inputs = {"argv": list(sys.argv[1:] if argv is None else argv)}
-            print(json.dumps(run.failure_record("bad input", str(error), inputs)))
+            print(dumps(run.failure_record("bad input", str(error), inputs)))
         return EXIT_USAGE

@@ -9,7 +9,6 @@ Exit codes: 0 every row as expected, 1 some row not as expected, 2 bad input.
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import time
 from collections.abc import Callable
@@ -46,7 +45,7 @@ def _stability(args: argparse.Namespace) -> int:
     total = time.perf_counter() - start
     if args.json:
         print(
-            json.dumps(
+            common.dumps(
                 {
                     "machine": machine,
                     "date": stamp,
@@ -101,7 +100,7 @@ def _accuracy(args: argparse.Namespace) -> int:
     result["date"] = time.strftime("%Y-%m-%d %H:%M %Z")
     result["total_wall_time_s"] = time.perf_counter() - start
     if args.json:
-        print(json.dumps(result))
+        print(common.dumps(result))
     else:
         print(_accuracy.markdown(result))
         print(

@@ -22,6 +22,7 @@ import msfd_jax as m
 from msfd_jax import _export
 from msfd_jax._cap import T_MAX_FLOOR
 from msfd_jax._progress import LineProgress  # noqa: F401 (for optimise: msfd tune)
+from msfd_jax._provenance import dumps  # noqa: F401 (strict JSON for every --json output)
 
 EXIT_OK, EXIT_USAGE, EXIT_SOLVE = 0, 2, 3
 
@@ -52,7 +53,7 @@ SI = {
     "beam_half_span": ("--beam-half-span", "L_b, half the beam span [m]"),
     "velocity": ("--impact-speed", "V0 [m/s]"),
     "block_mass": ("--block-mass", "2G, the whole rigid block [kg]"),
-    "beam_width": ("--beam-width", "b_b [m] (default: the ring width)"),
+    "beam_width": ("--beam-width", "b_b [m]"),  # its default (the ring width) is added where used
 }
 OPTION_NAMES = {
     **{k: v[0] for k, v in PARAMS.items()},

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
+import importlib.util
 import math
 from pathlib import Path
 
@@ -31,6 +31,7 @@ from . import common, sweep_si
 
 _CONSTRAINT = {"held": [1.0], "free": [0.0], "both": [0.0, 1.0]}
 _SUMMARY = (*FRACTION_KEYS[:5], "t_end", "status")
+_NETCDF_MODULES = ("xarray", "netCDF4", "h5netcdf", "h5py")
 
 
 values = common.values  # one list syntax for every subcommand
@@ -107,7 +108,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="keep the rows already in --csv/--parquet (matched by inputs), compute the rest",
     )
-    out.add_argument("--netcdf", type=Path, metavar="PATH", help="grid as NetCDF (needs xarray)")
+    out.add_argument(
+        "--netcdf",
+        type=Path,
+        metavar="PATH",
+        help="grid as NetCDF (needs xarray, h5netcdf and h5py: pip install 'msfd-jax[sweep]')",
+    )
     out.add_argument("--json", action="store_true", help="print the rows as JSON, nothing else")
 
 
@@ -179,8 +185,25 @@ def _use_host_devices(n: int, shard: bool) -> None:
     os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {flag}".strip()
 
 
-def handle(args: argparse.Namespace) -> int:
+def check_netcdf_dependencies(args: argparse.Namespace) -> None:
+    """Refuse ``--netcdf`` before the sweep runs when the modules that write it are missing
+    (found afterwards, the sweep's table would be lost): xarray, and netCDF4 or h5netcdf with
+    h5py (xarray's engines for NetCDF-4; h5netcdf does not require h5py itself)."""
+    if args.netcdf is None:
+        return
+    present = {name: importlib.util.find_spec(name) is not None for name in _NETCDF_MODULES}
+    missing = [] if present["xarray"] else ["xarray"]
+    if not present["netCDF4"]:
+        missing += [name for name in ("h5netcdf", "h5py") if not present[name]]
+    if missing:
+        raise common.UsageError(
+            f"--netcdf needs {', '.join(missing)}, not installed here; nothing was run. "
+            "Install them with: pip install 'msfd-jax[sweep]'"
+        )
 
+
+def handle(args: argparse.Namespace) -> int:
+    check_netcdf_dependencies(args)
     if args.host_devices is not None:
         _use_host_devices(args.host_devices, args.shard)
     spec = common.checked(grid_from_args, args)
@@ -227,7 +250,7 @@ def handle(args: argparse.Namespace) -> int:
     if args.netcdf is not None:
         sweep_si.write_netcdf(table, args.netcdf, record)
     if args.json:
-        print(json.dumps([{**row, "versions": record["versions"]} for row in table.rows()]))
+        print(common.dumps([{**row, "versions": record["versions"]} for row in table.rows()]))
     else:
         print(summary(table))
         if output is not None:

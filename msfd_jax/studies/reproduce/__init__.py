@@ -9,7 +9,6 @@ shows progress, and writes ``reproduce.md`` and ``reproduce.json``.
 from __future__ import annotations
 
 import importlib
-import json
 import time
 import traceback
 from collections.abc import Callable, Sequence
@@ -17,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ..._progress import LineProgress
+from ..._provenance import dumps
 from ._common import Finding, Reproduction
 
 FIGURES: dict[str, tuple[str, str, str]] = {
@@ -159,7 +159,7 @@ def write(
         "quick": quick,
         "figures": [r.to_json() for r in records],
     }
-    (results_dir / "reproduce.json").write_text(json.dumps(data, indent=1, default=_default) + "\n")
+    (results_dir / "reproduce.json").write_text(dumps(data, indent=1, default=_default) + "\n")
 
 
 def _relative(target: Path, start: Path) -> str:
