@@ -130,4 +130,8 @@ def history_of(flat: FlatScene, s: BatchState) -> dict:
     )
     if not flat.pairs:
         del out["contact_pairs"]
+    if flat.tracked is not None:  # the SI quantities' histories (`_si`): O's and G's motion
+        o, _, g = flat.tracked
+        out["midspan_deflection"] = one.x[o, 1] - flat.x0[o, 1, 0]
+        out["block_velocity"] = one.v[g, 1]
     return out

@@ -24,6 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from . import _peaks
 from ._collapse_forces import collapse_energy, collapse_pair_force, collapse_response
 from ._flat import COLLAPSE_LAYOUTS, FlatScene, PairLayout
 from ._laws import contact_energy, contact_spring, elastic_plastic
@@ -74,6 +75,7 @@ class BatchState(eqx.Module):
     k: Float[Array, " B"]
     done: Float[Array, " B"]
     code: Float[Array, " B"]
+    peaks: Float[Array, "P B"] | tuple  # `_peaks.PEAK_KEYS`; () if the scene tracks none
 
 
 class Clock(eqx.Module):
@@ -386,7 +388,7 @@ def initial_state(flat: FlatScene) -> BatchState:
     return BatchState(
         x, flat.v0, _accelerations(flat, r.forces), r.plastic_rotation, r.plastic_strain,
         r.permanent_set, r.bending, r.axial, r.contact, elastic,
-        _reaction(flat, r.forces), z, z, z, z, z, z, z, z,
+        _reaction(flat, r.forces), z, z, z, z, z, z, z, z, _peaks.initial(flat),
     )  # fmt: skip
 
 
@@ -411,23 +413,25 @@ def verlet_substep(
     bending, axial, contact = s.bending + r.bending, s.axial + r.axial, s.contact + r.contact
     total = jnp.sum(bending, 0) + jnp.sum(axial, 0) + jnp.sum(contact, 0)
     moved = total - s.dissipation_mark > tolerance
-    touching = jnp.zeros(h.shape, bool)
+    force = jnp.zeros(h.shape)
     for p, f in zip(flat.pairs, r.contact_force, strict=True):
         if isinstance(p, COLLAPSE_LAYOUTS):
             continue  # "apart" is ring and beam apart; a folded ring may stay closed on itself
-        touching = touching | (f > 0)  # f >= 0: a positive total is a positive force
+        force = force + jnp.sum(f, axis=tuple(range(f.ndim - 1)))
+    touching = force > 0  # every pair force is >= 0: a positive total is a closed contact
+    peaks = _peaks.update(flat, s.peaks, x, a1, force, h)
     return eqx.tree_at(
         lambda q: (
             q.x, q.v, q.a, q.plastic_rotation, q.plastic_strain, q.permanent_set, q.bending,
             q.axial, q.contact, q.reaction, q.drive_work,
-            q.last_dissipation, q.dissipation_mark, q.last_contact,
+            q.last_dissipation, q.dissipation_mark, q.last_contact, q.peaks,
         ),
         s,
         (
             x, v1, a1, r.plastic_rotation, r.plastic_strain, r.permanent_set, bending, axial,
             contact, reaction, drive_work,
             jnp.where(moved, t1, s.last_dissipation), jnp.where(moved, total, s.dissipation_mark),
-            jnp.where(touching, t1, s.last_contact),
+            jnp.where(touching, t1, s.last_contact), peaks,
         ),
     )  # fmt: skip
 

@@ -77,6 +77,17 @@ class FacePlaneLayout(NamedTuple):
 COLLAPSE_LAYOUTS = (SelfPairLayout, FacePlaneLayout)
 
 
+class Tracked(NamedTuple):
+    """The nodes whose motion a ring-on-beam run follows at every step (flat indices): the
+    beam's mid-span node O, the ring's front node S (on the symmetry plane, first to touch
+    the beam) and the block node G (the ring's last node, which carries half the block).
+    The engine keeps the design quantities' running peaks from them (`_engine.PEAK_KEYS`)."""
+
+    midspan: int
+    front: int
+    block: int
+
+
 class FlatScene(eqx.Module):
     """The model of B collisions of one layout; every array's last axis is the batch.
 
@@ -89,6 +100,7 @@ class FlatScene(eqx.Module):
         static=True
     )
     drive: tuple[int, int] | None = eqx.field(static=True)  # (flat node, axis)
+    tracked: Tracked | None = eqx.field(static=True)  # ring on beam only: the peaks' nodes
     smooth_yield: bool = eqx.field(static=True)  # False: the sharp laws alone (Scene's flags)
     smooth_contact: bool = eqx.field(static=True)
     x0: Float[Array, "N 2 B"]
@@ -154,6 +166,16 @@ def layout_of(scene: Scene):
     return tuple(chains), tuple(pairs), drive
 
 
+def tracked_nodes(chains: tuple[ChainLayout, ...]) -> Tracked | None:
+    """`Tracked` for a scene with a chain "ring" and a chain "beam", else None (a plate, a
+    cantilever or a driven beam follows no peaks and compiles no code for them)."""
+    named = {c.name: c for c in chains}
+    if "ring" not in named or "beam" not in named:
+        return None
+    ring, beam = named["ring"], named["beam"]
+    return Tracked(beam.node, ring.node, ring.node + ring.n_nodes - 1)
+
+
 def _collapse_layout(k: SelfContact | BlockFaceContact, first: int):
     """The layout of a collapse contact whose chain starts at flat node `first`."""
     a, n = _range(k.nodes, "nodes")
@@ -207,6 +229,7 @@ def _flatten_one(scene: Scene) -> FlatScene:
         chains=chains,
         pairs=pairs,
         drive=drive,
+        tracked=tracked_nodes(chains),
         smooth_yield=scene.smooth_yield,
         smooth_contact=scene.smooth_contact,
         x0=jnp.concatenate([c.reference for c in scene.chains]),

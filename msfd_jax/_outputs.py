@@ -19,14 +19,13 @@ from ._params import CollisionParams, Mesh, Scales
 from ._provenance import mesh_json, settings_json, versions
 from ._results import BALANCE_TOLERANCE, FAILED, RESULTS
 from ._scene import Scene, ring_on_beam
-from ._si import design_quantities, motion_settings
+from ._si import design_quantities
 from ._simulate import (
     Settings,
     Solution,
     _simulate,
     array_module,
     prepare,
-    resolve_cap,
 )
 
 FRACTION_KEYS = (
@@ -220,10 +219,9 @@ def _degenerate(sol: Solution, scene: Scene) -> str | None:
 class Collision:
     """One finished ring-on-beam collision, with its partition and provenance.
 
-    `settings` are the settings asked for (a run in SI also saves node positions at every
-    history sample, `msfd_jax._si.motion_settings`; `settings` stays what was asked, so a rerun
-    from `to_json` is the same run). `scales` are the SI unit scales when the collision was
-    given in SI (then `si` holds the design quantities in SI, whole structure).
+    `settings` are the settings asked for (a rerun from `to_json` is the same run).
+    `scales` are the SI unit scales when the collision was given in SI (then `si` holds the
+    design quantities in SI, whole structure).
     """
 
     params: CollisionParams
@@ -376,9 +374,6 @@ def run(
     if scales is not None and not isinstance(scales, Scales):
         raise TypeError(f"scales must be a msfd_jax.Scales (from from_si), got {scales!r}")
     solved = settings
-    if scales is not None:  # positions at every history sample over [0, the cap]
-        motion = motion_settings(resolve_cap(scene, settings))
-        solved = dataclasses.replace(motion, t_max=settings.t_max)
     solution, wall, compile_s = _solve_timed(scene, solved)
     attempt, first, first_text, note = 0, None, None, ""
     best = (solution, wall, 0)

@@ -23,7 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array
 
-from . import _export
+from . import _export, _peaks
 from ._attempts import RETRY_FACTOR
 from ._cap import time_cap
 from ._core import solve
@@ -146,6 +146,7 @@ def _solution(flat, y, kin, block, forces, dt, dt_crit, k0, substeps) -> Solutio
         history={},
         shape_ts=np.zeros((len(k0), 0)),
         shapes=(),
+        peaks=_peaks.as_dict(y.peaks),
     )
 
 

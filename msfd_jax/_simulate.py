@@ -18,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from . import _export
+from . import _export, _peaks
 from ._cap import concrete_time_cap, time_cap
 from ._core import chain_state, history_of, solve
 from ._dynamics import State, critical_step
@@ -199,6 +199,7 @@ class Solution(eqx.Module):
     history: dict
     shape_ts: Array
     shapes: tuple
+    peaks: dict  # `_peaks.PEAK_KEYS`, kept at every step (ring on beam only; else {})
 
     @property
     def energy_balance_error(self):
@@ -339,6 +340,7 @@ def _simulate(
         history=hist,
         shape_ts=shape_ts,
         shapes=shapes,
+        peaks=_peaks.as_dict(jax.tree_util.tree_map(lambda a: a[..., 0], last.peaks)),
     )
 
 
