@@ -129,3 +129,59 @@ def test_the_final_ring_turns_from_u_to_w_as_the_beam_thickens(shapes_quick):
     assert np.all(np.diff(w) > -0.02)
     cases = {c["thickness_ratio"]: c["shape"] for c in record.numbers["cases"]}
     assert cases[1.0] == "U" and cases[2.5] == "W"  # Fig. 14a and Fig. 13
+
+
+def _fig10_numbers(failed_free_first: bool) -> dict:
+    """Fig. 10's numbers on four thicknesses, made up: the free beam's first run failed."""
+    from msfd_jax.studies.reproduce import fig10
+
+    thickness = np.array([0.25, 1.0, 3.0, 5.0])
+    n = len(thickness)
+    beam = np.array([0.6, 0.5, 0.3, 0.2])
+    columns = {
+        "beam_bending": np.tile(0.6 * beam, 2),
+        "beam_axial": np.tile(np.array([0.2, 0.1, 0.004, 0.001]), 2),
+        "ring_bending": np.tile(1.0 - beam, 2),
+        "ring_axial": np.zeros(2 * n),
+        "contact": np.full(2 * n, 0.001),
+        "t_end": np.full(2 * n, 5.0),
+        "status": np.array(["settled"] * 2 * n, dtype="U40"),
+    }
+    if failed_free_first:  # where it stopped: a share no run that succeeded has
+        columns["status"][0] = m.RESULTS.energy_balance_broken.status
+        columns["beam_bending"][0] = columns["ring_bending"][0] = 0.01
+    table = m.SweepTable(columns)
+    return {"thickness_ratio": thickness, **fig10.shares(table, n)}
+
+
+def test_fig10_leaves_failed_runs_out_of_the_figure_and_the_findings(tmp_path):
+    from msfd_jax.studies.reproduce import fig10
+
+    clean, failed = _fig10_numbers(False), _fig10_numbers(True)
+    assert failed["free"]["ok"].tolist() == [False, True, True, True]
+    findings = fig10.judge_fig10(failed)
+    # the made-up failed run would have reversed the free beam's trend: it is not used
+    assert [f.agree for f in findings] == [f.agree for f in fig10.judge_fig10(clean)]
+    assert "failed, left out: h_b/h_r = 0.25" in findings[0].ours
+    assert "not data" in fig10.table_fig10(failed)
+    [name] = fig10.draw_fig10(failed, tmp_path)
+    assert (tmp_path / name).exists()
+    from matplotlib.figure import Figure
+
+    ax = Figure().subplots()
+    r = failed["free"]
+    from msfd_jax.studies.reproduce import _batch as b
+
+    b.plot_runs(ax, failed["thickness_ratio"], r["beam"], r["ok"], "o-", label="beam")
+    b.mark_failed(ax, failed["thickness_ratio"], r["ok"], r["status"])
+    line, cross = ax.get_lines()
+    assert np.isnan(line.get_ydata()[0]) and list(cross.get_xdata()) == [0.25]
+    assert "failed" in cross.get_label()
+
+
+def test_fig16_onset_text_never_says_nan():
+    from msfd_jax.studies.reproduce.contact import _onset_text
+
+    assert _onset_text(float("nan"), 0.4).startswith("non-zero at every v0 swept")
+    assert _onset_text(0.3, 0.4) == "zero for v0 <= 0.3, non-zero from v0 = 0.4"
+    assert "nan" not in _onset_text(float("nan"), float("nan"))

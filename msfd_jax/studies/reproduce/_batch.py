@@ -21,7 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..._params import CollisionParams, Mesh, validate
-from ..._results import RESULTS
+from ..._results import FAILED, RESULTS
 from ..._scene import ring_on_beam
 from ..._simulate import Settings, simulate
 from ..._sweep import SweepTable, collisions, step_bound, sweep
@@ -183,6 +183,27 @@ def _one(sol, j: int, params: dict[str, float]) -> Run:
 # ---- reporting helpers ------------------------------------------------------------------
 
 
+def succeeded(status: Sequence[str]) -> np.ndarray:
+    """True for the runs whose numbers are data: not failed (non-finite, energy balance
+    broken, max steps; `RESULTS.failed`). A failed run's fractions are where it stopped."""
+    return ~np.isin(np.asarray(status, dtype=str), [r.status for r in FAILED])
+
+
+def plot_runs(ax, x, y, ok: np.ndarray, style: str, **kwargs) -> None:
+    """Plot the runs that succeeded only: a failed run is a gap in the curve, not a point."""
+    ax.plot(x, np.where(ok, y, np.nan), style, **kwargs)
+
+
+def mark_failed(ax, x, ok: np.ndarray, status: Sequence[str]) -> None:
+    """A red cross on the x axis at each failed run, named in the legend as failed."""
+    if np.all(ok):
+        return
+    names = sorted(set(np.asarray(status, dtype=str)[~ok]))
+    x = np.asarray(x)[~ok]
+    label = f"failed run, not plotted ({', '.join(names)})"
+    ax.plot(x, np.zeros_like(x), "x", color="red", ms=8, mew=2, clip_on=False, label=label)
+
+
 def save(fig, figures_dir: Path, name: str) -> str:
     """Save a matplotlib `Figure` as ``figures_dir / name``; return the name."""
     figures_dir = Path(figures_dir)
@@ -192,11 +213,11 @@ def save(fig, figures_dir: Path, name: str) -> str:
 
 
 def table(header: Sequence[str], rows: Sequence[Sequence[Any]], fmt: str = ".3f") -> str:
-    """A markdown table; floats formatted with `fmt`."""
+    """A markdown table; floats formatted with `fmt` (NaN, no number: a dash)."""
 
     def cell(v):
         if isinstance(v, float | np.floating):
-            return format(float(v), fmt)
+            return "-" if np.isnan(v) else format(float(v), fmt)
         return str(v)
 
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]

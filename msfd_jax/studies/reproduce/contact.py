@@ -339,6 +339,15 @@ def onset_velocity(velocity: np.ndarray, absolute: np.ndarray) -> list[float]:
     return [float(velocity[off].max()) if off.any() else float("nan"), onset]
 
 
+def _onset_text(below: float, onset: float) -> str:
+    """Where the contact dissipation starts, in words (`onset_velocity`'s pair, NaN: none)."""
+    if np.isnan(onset):
+        return "zero at every v0 swept"
+    if np.isnan(below):
+        return f"non-zero at every v0 swept (from v0 = {onset:g}: the onset lies below)"
+    return f"zero for v0 <= {below:g}, non-zero from v0 = {onset:g}"
+
+
 def compute_fig16(quick: bool) -> dict:
     """The h_b/h_r = 1 sweep (`h1_table`): its columns, the contact dissipation in M_pr
     (``contact_absolute``), the series' rows (``series``) and the onset velocity."""
@@ -420,7 +429,7 @@ def judge_fig16(numbers: dict) -> list[Finding]:
         Finding(
             "Fig. 16",
             "the contact dissipation increases with the initial velocity",
-            f"g = 10: zero for v0 <= {below:g}, first non-zero at v0 = {onset:g}, "
+            f"g = 10: {_onset_text(below, onset)}, "
             f"{absolute[v][-1]:.4f} M_pr at v0 = {vel[-1]:g}; non-decreasing: "
             f"{bool(np.all(np.diff(absolute[v]) >= -1e-9))}",
             bool(np.all(np.diff(absolute[v]) >= -1e-9) and absolute[v][-1] > 0),
@@ -432,7 +441,7 @@ def judge_fig16(numbers: dict) -> list[Finding]:
             "the contact springs dissipate at the paper's velocities (Fig. 16's fixed-v0 "
             "mass series is a constant, non-zero level; read by eye)",
             f"v0 = 0.82: {absolute[slow].min():.4f}-{absolute[slow].max():.4f} M_pr over "
-            f"every mass; dissipation starts between v0 = {below:g} and {onset:g}",
+            f"every mass; {_onset_text(below, onset)}",
             bool(absolute[slow].min() > 0),
             "the first impact's two-mass peak force v0 sqrt(k mu) (S-O pair: "
             f"{two['peak']:.1f} at h_b/h_r = 1, v0 = 0.82) passes the pair's yield force "

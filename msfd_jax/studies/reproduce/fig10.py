@@ -40,6 +40,7 @@ def shares(table, n: int) -> dict[str, dict[str, np.ndarray]]:
             ring_axial=table["ring_axial"][s],
             status=table["status"][s],
             t_end=table["t_end"][s],
+            ok=b.succeeded(table["status"][s]),
         )
     return rows
 
@@ -73,7 +74,8 @@ def draw_fig10(numbers: dict, figures_dir: Path) -> list[str]:
     for ax, (name, label) in zip(axes[:2], panels, strict=True):
         r = rows[name]
         for key, style in (("beam", "o-"), ("ring", "s-"), ("contact", "^-"), ("plastic", "k--")):
-            ax.plot(thickness, r[key], style, ms=3, label=key)
+            b.plot_runs(ax, thickness, r[key], r["ok"], style, ms=3, label=key)
+        b.mark_failed(ax, thickness, r["ok"], r["status"])
         ax.set(title=f"{label}: beam {name}", xlabel="$h_b/h_r$", ylabel="fraction of $K_0$")
         ax.set_ylim(0, 1.05)
         ax.grid(alpha=0.3)
@@ -86,7 +88,8 @@ def draw_fig10(numbers: dict, figures_dir: Path) -> list[str]:
         ("beam_axial", "^-"),
         ("ring_axial", "v-"),
     ):
-        ax.plot(thickness, r[key], style, ms=3, label=key.replace("_", " "))
+        b.plot_runs(ax, thickness, r[key], r["ok"], style, ms=3, label=key.replace("_", " "))
+    b.mark_failed(ax, thickness, r["ok"], r["status"])
     ax.set(title="(c) Fig. 11: constrained, bending vs axial", xlabel="$h_b/h_r$")
     ax.set_ylim(0, 1.05)
     ax.grid(alpha=0.3)
@@ -125,7 +128,7 @@ def table_fig10(numbers: dict) -> str:
                         f"{r['contact'][i]:.4f}",
                         r["plastic"][i],
                         f"{r['t_end'][i]:.2f}",
-                        r["status"][i],
+                        r["status"][i] + ("" if r["ok"][i] else ": where it stopped; not data"),
                     )
                     for i, h in enumerate(thickness)
                 ],
@@ -135,22 +138,30 @@ def table_fig10(numbers: dict) -> str:
     return "\n".join(lines)
 
 
+def _succeeded(numbers: dict, name: str) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The thicknesses and shares of constraint `name`'s runs that did not fail."""
+    r = numbers[name]
+    ok = r["ok"]
+    return numbers["thickness_ratio"][ok], {k: v[ok] for k, v in r.items()}
+
+
 def judge_fig10(numbers: dict) -> list[Finding]:
-    """The verdicts on Fig. 10a/b and Fig. 11's statements."""
-    thickness, rows = numbers["thickness_ratio"], numbers
-    free, held = rows["free"], rows["constrained"]
+    """The verdicts on Fig. 10a/b and Fig. 11's statements, on the runs that did not fail
+    (a failed run's fractions are where it stopped, not the collision's partition)."""
+    (free_h, free), (thickness, held) = (_succeeded(numbers, c) for c in ("free", "constrained"))
     out = []
-    for name, r in (("free", free), ("constrained", held)):
+    for name, h, r in (("free", free_h, free), ("constrained", thickness, held)):
         falls = np.diff(r["beam"])
         out.append(
             Finding(
                 "Fig. 10a" if name == "free" else "Fig. 10b",
                 "the less stiff structure dissipates more: as h_b/h_r grows the ring's share "
                 "rises and the beam's falls",
-                f"beam {name}: beam share {r['beam'][0]:.3f} at h_b/h_r = {thickness[0]:g} -> "
-                f"{r['beam'][-1]:.3f} at {thickness[-1]:g}, ring {r['ring'][0]:.3f} -> "
+                f"beam {name}: beam share {r['beam'][0]:.3f} at h_b/h_r = {h[0]:g} -> "
+                f"{r['beam'][-1]:.3f} at {h[-1]:g}, ring {r['ring'][0]:.3f} -> "
                 f"{r['ring'][-1]:.3f}; the beam share rises in {int(np.sum(falls > 0))} of "
-                f"{len(falls)} steps (largest rise {max(float(falls.max()), 0.0):.3f})",
+                f"{len(falls)} steps (largest rise {max(float(falls.max()), 0.0):.3f})"
+                + _failed_note(numbers, name),
                 bool(r["beam"][-1] < r["beam"][0] and r["ring"][-1] > r["ring"][0]),
                 "a thicker beam is stiffer and stronger (m_p ~ h^2, n_p ~ h), so the ring, "
                 "now the weaker structure, takes the deformation. (The paper's sentence "
@@ -163,7 +174,8 @@ def judge_fig10(numbers: dict) -> list[Finding]:
         Finding(
             "Fig. 10",
             "the local contact deformation dissipates a very small portion of K0",
-            f"at most {contact:.4f} K0 over all {2 * len(thickness)} runs",
+            f"at most {contact:.4f} K0 over the {len(free_h) + len(thickness)} runs that did "
+            "not fail",
             contact < 0.05,
             "at v0 = 0.82 the contact pair forces stay below the contact yield force "
             "(see Fig. 16): the contact springs stay elastic, so they dissipate nothing; "
@@ -218,6 +230,15 @@ def judge_fig10(numbers: dict) -> list[Finding]:
         )
     )
     return out
+
+
+def _failed_note(numbers: dict, name: str) -> str:
+    """' (failed, left out: h_b/h_r = ...)' for constraint `name`, or ''."""
+    r = numbers[name]
+    failed = numbers["thickness_ratio"][~r["ok"]]
+    if not failed.size:
+        return ""
+    return f" (failed, left out: h_b/h_r = {', '.join(f'{h:g}' for h in failed)})"
 
 
 def reproduce(quick: bool, figures_dir: Path) -> Reproduction:
