@@ -8,7 +8,7 @@ with ``int(solution.result)``; an `IntEnum` member *is* that integer, so
 it both hold, and ``code == RESULTS.settled`` works on a plain int. (An `equinox.Enumeration`
 item compares only with items of its own enumeration.)
 
-The values 0..4 and the status strings are part of the output format: do not renumber.
+The values 0..5 and the status strings are part of the output format: do not renumber.
 """
 
 from __future__ import annotations
@@ -38,6 +38,14 @@ class RESULTS(enum.IntEnum):
         "the energy balance error exceeded Settings.energy_guard",
     )
     max_steps = 4, "max steps", "stopped after Settings.max_steps steps before the time cap"
+    # A joint folded past pi (`_engine.FOLD_LIMIT`): its bars pass through each other, which
+    # the model cannot follow, so the run stops there with its energy balance still closed;
+    # "energy balance broken" would name the wrong cause. A smaller step does not help.
+    folded = (
+        5,
+        "folded",
+        "a plastic joint folded past pi (its bars through each other); the run stopped there",
+    )
 
     @property
     def failed(self) -> bool:
@@ -50,6 +58,6 @@ class RESULTS(enum.IntEnum):
 BALANCE_TOLERANCE = 1e-4
 
 # Aliases kept for the former ``range(5)`` constants and the name tuple.
-FAILED = (RESULTS.non_finite, RESULTS.energy_balance_broken, RESULTS.max_steps)
+FAILED = (RESULTS.non_finite, RESULTS.energy_balance_broken, RESULTS.max_steps, RESULTS.folded)
 RESULT_NAMES = tuple(r.status for r in RESULTS)
-SETTLED, TIME_LIMIT, NON_FINITE, ENERGY_BALANCE, MAX_STEPS = RESULTS
+SETTLED, TIME_LIMIT, NON_FINITE, ENERGY_BALANCE, MAX_STEPS = tuple(RESULTS)[:5]

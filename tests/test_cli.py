@@ -245,3 +245,10 @@ def test_bench_help_lists_every_study(capsys):
     for study in bench.BENCHES:
         assert study in line and study in text
     assert "default: none" not in text
+
+
+def test_a_fold_has_its_own_result_code():
+    """A run stopped by a fold (balance closed) is not "energy balance broken" (issue 28)."""
+    assert m.RESULTS(5) is m.RESULTS.folded and m.RESULTS.folded.failed
+    assert m.RESULTS.folded.status == "folded" and "pi" in m.RESULTS.folded.message
+    assert [int(r) for r in m.RESULTS][:5] == [0, 1, 2, 3, 4]  # the output format kept

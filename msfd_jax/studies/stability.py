@@ -398,7 +398,12 @@ def verdict(row: dict[str, Any]) -> str:
         ok = result == REFUSED and row["cause"] in row["message"]
     elif expect == STOPPED:
         ok = (
-            result in (RESULTS.non_finite.status, RESULTS.energy_balance_broken.status)
+            result
+            in (
+                RESULTS.non_finite.status,
+                RESULTS.energy_balance_broken.status,
+                RESULTS.folded.status,
+            )
             and row["cause"] in row["message"]
         )
     else:
