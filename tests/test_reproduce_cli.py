@@ -5,8 +5,18 @@ the coarse mesh) when both run in one session.
 """
 
 import json
+import re
 
 from msfd_jax import cli
+
+
+def strict_json(text: str):
+    """Strict JSON (tests/test_cli.py): a bare NaN or Infinity is refused."""
+
+    def refuse(constant: str):
+        raise ValueError(f"not JSON: {constant}")
+
+    return json.loads(text, parse_constant=refuse)
 
 
 def test_unknown_figure_is_refused_with_the_known_keys(capsys, tmp_path):
@@ -24,7 +34,9 @@ def test_quick_only_one_figure(capsys, tmp_path, monkeypatch):
     assert code == cli.EXIT_OK, out
     base = tmp_path / "reproduce-quick"
     assert (base / "figures" / "fig13.png").exists() and (base / "figures" / "fig14.png").exists()
-    data = json.loads((base / "reproduce.json").read_text())
+    data = strict_json((base / "reproduce.json").read_text())
     assert [f["key"] for f in data["figures"]] == ["fig13_14"] and data["quick"]
-    assert "--quick --only fig13_14" in (base / "reproduce.md").read_text()
+    report = (base / "reproduce.md").read_text()
+    assert "--quick --only fig13_14" in report
+    assert not re.search(r"\bnan\b", report, re.IGNORECASE)
     assert not (tmp_path / "docs").exists()  # a quick run never writes the committed figures

@@ -381,3 +381,18 @@ def test_a_retry_runs_in_the_queue_as_it_would_alone(monkeypatch):
         assert list(alone["retries"]) == [0] * len(these)
         for key in ("steps", "t_end", "dt", "energy_balance_error", *FRACTION_KEYS):
             np.testing.assert_array_equal(table[key][these], alone[key], err_msg=key)
+
+
+def test_si_sweep_summary_shows_the_si_inputs():
+    """``msfd sweep --si``: the summary names the swept SI inputs with their units."""
+    n = 2
+    columns = {k: np.full(n, 1.0) for k in INPUTS}
+    columns["thickness_ratio"] = np.array([2.0, 3.0])
+    columns |= {k: np.full(n, 0.1) for k in FRACTION_KEYS}
+    columns |= {"t_end": np.full(n, 4.0), "status": np.array(["settled"] * n)}
+    columns |= {"result": np.zeros(n, np.int64), "si_beam_thickness": np.array([0.06, 0.09])}
+    columns["si_radius"] = np.full(n, 0.05)  # not swept: not shown
+    text = sweep_command.summary(SweepTable(columns, wall_time_s=1.0))
+    head = text.splitlines()[0].split()
+    assert head[:4] == ["h_b", "[m]", "thickness", "beam_bending"]
+    assert "0.09" in text and "R [m]" not in text

@@ -311,8 +311,10 @@ def _client(args: argparse.Namespace):
 
 
 def summary(table: SweepTable, max_rows: int = 40) -> str:
-    """Inputs that vary and the main fractions of K0, one line per collision."""
-    varying = [k for k in INPUTS if np.unique(table[k]).size > 1]
+    """Inputs that vary (the SI ones first, for an SI grid) and the main fractions of K0, one
+    line per collision."""
+    si = [f"si_{k}" for k in common.SI if f"si_{k}" in table.keys()]
+    varying = [k for k in (*si, *INPUTS) if np.unique(table[k]).size > 1]
     names = [*varying, *_SUMMARY]
     head = "  ".join(f"{_short(k):>12}" for k in names)
     lines = [head, "-" * len(head)]
@@ -336,6 +338,11 @@ def summary(table: SweepTable, max_rows: int = 40) -> str:
 
 
 def _short(name: str) -> str:
+    field = name.removeprefix("si_")
+    if name.startswith("si_") and field in common.SI:  # "L_b, half the beam span [m]" -> "L_b [m]"
+        text = common.SI[field][1]
+        symbol, unit = text.split(" ")[0].rstrip(","), text[text.rfind("[") :]
+        return f"{symbol} {unit}"[:12]
     return name.replace("_ratio", "").replace("axial_constraint", "constrained")[:12]
 
 
