@@ -89,10 +89,10 @@ plot_collision(collision)
 #
 # Four rail depths from 50 to 100 mm, one batch (`msfd_jax.sweep` over the converted
 # groups); deeper rails break the coarse mesh's energy balance (120 mm and more).
-# On this coarse mesh the split does not move steadily with the depth: the table below
-# zigzags (the 67 mm and 100 mm rails take less than the 50 mm and 83 mm ones), and only
-# the 50 mm against the 100 mm rail shows the deeper rail taking less, the car's front more.
-# Do not read a design trend from it: rerun with `MSFD_GUARDRAIL_FULL=1` (the paper's mesh).
+# On this coarse mesh the split does not move steadily with the depth: the rail takes less at
+# 67 mm than at 50 mm, more again at 83 mm, and least at 100 mm (the car's front the
+# opposite). The 100 mm rail does take less than the 50 mm one, but the zigzag is no design
+# trend: rerun with `MSFD_GUARDRAIL_FULL=1` (the paper's mesh) before reading one.
 
 # %%
 depths = np.linspace(0.05, 0.10, 4)
