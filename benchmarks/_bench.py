@@ -1,5 +1,6 @@
-"""Small pieces the core benchmarks share: pinning to one core, a batch of showcase-like
-collisions, a loop of Verlet substeps, and interleaved timing."""
+"""Small pieces the benchmarks share: where results go (``--quick`` apart), goal 2's grid,
+pinning to one core, a batch of showcase-like collisions, a loop of Verlet substeps, and
+interleaved timing."""
 
 from __future__ import annotations
 
@@ -8,6 +9,47 @@ import shutil
 import subprocess
 import sys
 import time
+from pathlib import Path
+
+import numpy as np
+
+RESULTS = Path(__file__).resolve().parent / "results"
+# Issue 11 goal 2's grid (the CLI's --thickness-ratio 0.25:5:64 --axial-constraint both
+# --mass-ratio 5,10,20,40 --velocity 0.6,0.82): 1024 collisions.
+GRID = dict(
+    thickness_ratio=[float(v) for v in np.linspace(0.25, 5.0, 64)],
+    axial_constraint=[0.0, 1.0],
+    mass_ratio=[5.0, 10.0, 20.0, 40.0],
+    velocity=[0.6, 0.82],
+)
+
+
+def results_dir(quick: bool = False) -> Path:
+    """Where a benchmark writes its result: ``$MSFD_BENCH_RESULTS`` if set, else
+    benchmarks/results/ for a full run and a scratch folder for ``--quick`` (so that a quick
+    run never replaces the committed result that docs/performance.md is written from)."""
+    import tempfile
+
+    env = os.environ.get("MSFD_BENCH_RESULTS")
+    if env:
+        path = Path(env)
+    elif quick:
+        path = Path(tempfile.gettempdir()) / "msfd-bench-quick"
+    else:
+        path = RESULTS
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def add_quick(parser) -> None:
+    """The ``--quick`` flag every benchmark takes: a small form that finishes in about a
+    minute and writes to `results_dir(quick=True)`."""
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="a small form (about a minute) that checks the benchmark runs; writes to "
+        "$MSFD_BENCH_RESULTS or a scratch folder, never benchmarks/results/",
+    )
 
 
 def pin() -> None:
@@ -71,15 +113,11 @@ def half_way(mesh, b: int, dt: float, steps: int):
     return flat, clock, substep_loop(steps // 2, h, clock.tolerance)(flat, y), h
 
 
-def write_result(name: str, lines: list[str]) -> str:
-    """Print the report and write it to benchmarks/results/`name`."""
-    from pathlib import Path
-
+def write_result(name: str, lines: list[str], quick: bool = False) -> str:
+    """Print the report and write it to `results_dir(quick)` / `name`."""
     text = "\n".join(lines) + "\n"
     print(text)
-    results = Path(__file__).resolve().parent / "results"
-    results.mkdir(exist_ok=True)
-    (results / name).write_text(text)
+    (results_dir(quick) / name).write_text(text)
     return text
 
 
@@ -129,14 +167,3 @@ def interleaved_best(programs: dict, rounds: int) -> dict:
     after a first call (`interleaved_times`)."""
     _, times = interleaved_times(programs, rounds)
     return {key: min(t) for key, t in times.items()}
-
-
-def loop_body_fusions(jitted, *args) -> int:
-    """Fusions (XLA:CPU kernels) in the body of the compiled program's first while loop: at
-    a batch of one a substep costs about a fixed time per kernel, so this counts its work."""
-    import re
-
-    text = jitted.lower(*args).compile().as_text()
-    body = re.search(r" while\(.*?body=(%?[\w.\-]+)", text).group(1).lstrip("%")
-    block = re.search(rf"^%?{re.escape(body)} .*?\{{\n(.*?)^\}}", text, re.M | re.S).group(1)
-    return len(re.findall(r"= \S+ fusion\(", block))

@@ -10,10 +10,13 @@ whole sweep is timed: collisions/s exclude start-up and compilation. Every table
 with the in-process one. Writes ``benchmarks/results/cluster.md`` (and ``cluster.json``).
 
     python benchmarks/cluster_throughput.py
+    python benchmarks/cluster_throughput.py --quick   # 16 collisions, small mesh, 2 configs
 """
 
 from __future__ import annotations
 
+import argparse
+import itertools
 import json
 import os
 import platform
@@ -22,6 +25,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import _bench
 import jax
 import numpy as np
 
@@ -29,7 +33,7 @@ import msfd_jax as m
 from msfd_jax import _cluster
 from msfd_jax._sweep import OUTPUTS, SWEEP_SETTINGS, sweep
 
-RESULTS = Path(__file__).parent / "results"
+MESH = m.Mesh()
 GRID = {
     "thickness_ratio": np.linspace(0.25, 5.0, 16),
     "axial_constraint": [0.0, 1.0],
@@ -45,14 +49,12 @@ CONFIGS = [  # name, workers (None: in process), worker environment
 
 
 def first_rows() -> list[dict]:
-    import itertools
-
     points = list(itertools.product(*GRID.values()))[:CHUNK]
     return [dict(zip(GRID, p, strict=True)) for p in points]
 
 
 def measure(name, workers, env, cache: Path, reference) -> tuple[dict, object]:
-    mesh, settings = m.Mesh(), SWEEP_SETTINGS
+    mesh, settings = MESH, SWEEP_SETTINGS
     tick = time.perf_counter()
     client = None if workers is None else _cluster.connect(f"local:{workers}", worker_env=env)
     started = time.perf_counter() - tick
@@ -90,20 +92,23 @@ def measure(name, workers, env, cache: Path, reference) -> tuple[dict, object]:
     return record, reference
 
 
-def write(records: list[dict]) -> None:
+def write(records: list[dict], quick: bool = False) -> None:
+    results = _bench.results_dir(quick)
     machine = dict(platform=platform.platform(), cpus=os.cpu_count(), jax=jax.__version__)
     command = " ".join(["python benchmarks/cluster_throughput.py", *sys.argv[1:]])
-    (RESULTS / "cluster.json").write_text(
+    (results / "cluster.json").write_text(
         json.dumps(dict(command=command, machine=machine, runs=records), indent=1) + "\n"
     )
     base = records[0]["collisions_per_s"]
+    mesh_name = "a small" if quick else "the paper's"
     lines = [
         "# Cluster throughput (Dask LocalCluster)",
         "",
         f"Written by `{command}` on {machine['platform']}, {machine['cpus']} CPUs, "
         f"jax {machine['jax']} (cpu), {time.strftime('%Y-%m-%d')}.",
-        "Sweep: 64 collisions (h_b/h_r = 0.25..5 x free/held x g = 5, 10; v0 = 0.82), paper's "
-        f"mesh, default sweep settings, chunks (and Dask tasks) of {CHUNK} collisions.",
+        f"Sweep: {len(list(itertools.product(*GRID.values())))} collisions (h_b/h_r = 0.25..5 x "
+        f"free/held x g = 5, 10; v0 = 0.82), {mesh_name}"
+        f" mesh, default sweep settings, chunks (and Dask tasks) of {CHUNK} collisions.",
         "Collisions/s exclude start-up and compilation (each configuration first runs one task "
         "per worker); `first task` includes compiling or loading the shared compile cache "
         "(the first cluster compiles, the later ones load). The CPUs are shared with other "
@@ -120,16 +125,25 @@ def write(records: list[dict]) -> None:
             f"{r['collisions_per_s'] / base:.2f}x | {r['max_abs_difference_from_in_process']:.1e} "
             f"| {r['load_average_1min']:.2f} |"
         )
-    (RESULTS / "cluster.md").write_text("\n".join(lines) + "\n")
+    (results / "cluster.md").write_text("\n".join(lines) + "\n")
 
 
 def main() -> None:
+    global MESH, GRID
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    _bench.add_quick(parser)
+    args = parser.parse_args()
+    configs = CONFIGS
+    if args.quick:
+        MESH = m.Mesh(ring_segments=6, beam_contact_segments=8, beam_outer_segments=2)
+        GRID = dict(GRID, thickness_ratio=np.linspace(0.25, 5.0, 4))
+        configs = [CONFIGS[0], CONFIGS[2]]
     records, reference = [], None
     with tempfile.TemporaryDirectory() as cache:
-        for name, workers, env in CONFIGS:
+        for name, workers, env in configs:
             record, reference = measure(name, workers, env, Path(cache), reference)
             records.append(record)
-    write(records)
+    write(records, args.quick)
 
 
 if __name__ == "__main__":

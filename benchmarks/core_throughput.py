@@ -13,6 +13,7 @@ Issue 11's goals 1 and 3:
 
     python benchmarks/core_throughput.py            # writes benchmarks/results/core.{json,md}
     python benchmarks/core_throughput.py --slots 16 64 --repeats 1
+    python benchmarks/core_throughput.py --quick    # 2 collisions, 16 slots, one repeat
 
 Re-executes itself under ``taskset -c 0`` (one core for both) when available.
 """
@@ -32,8 +33,8 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-RESULTS = HERE / "results"
 sys.path.insert(0, str(HERE))
+import _bench  # noqa: E402
 
 
 def _pin():
@@ -47,12 +48,17 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--slots", nargs="+", type=int, default=[8, 16, 32, 64])
     parser.add_argument("--repeats", type=int, default=2)
+    _bench.add_quick(parser)
     args = parser.parse_args()
     _pin()
     import jax
     import numpy as np
-    from numba_reference import Reference
+    from _numba_reference import Reference
     from sweep_throughput import GRID
+
+    if args.quick:
+        GRID = dict(thickness_ratio=[1.0, 2.5], axial_constraint=[1.0], mass_ratio=[10.0])
+        args.slots, args.repeats = [16], 1
 
     import msfd_jax as m
     from msfd_jax import _sweep
@@ -138,7 +144,8 @@ def main() -> None:
     t_numba = min(_timed(ref) for _ in range(5))
     c_numba = min(_timed(ref, time.process_time) for _ in range(5))
     show = {}
-    for name, st in (("default settings", m.Settings(t_max=10.0)), ("lean settings", settings)):
+    variants = (("default settings", m.Settings(t_max=10.0)), ("lean settings", settings))
+    for name, st in variants[: 1 if args.quick else 2]:
         jax.block_until_ready(m.simulate(scene, st))
 
         def one(st=st):
@@ -152,9 +159,9 @@ def main() -> None:
         print(f"showcase jax ({name}) {t * 1e3:.1f} ms, numba {t_numba * 1e3:.1f} ms, "
               f"numba/jax {t_numba / t:.2f}; CPU time numba/jax {c_numba / c:.2f}")  # fmt: skip
     record["showcase"] = dict(numba_s=t_numba, numba_cpu_s=c_numba, steps=ref()["steps"], jax=show)
-    RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "core.json").write_text(json.dumps(record, indent=1) + "\n")
-    (RESULTS / "core.md").write_text(_markdown(record))
+    results = _bench.results_dir(args.quick)
+    (results / "core.json").write_text(json.dumps(record, indent=1) + "\n")
+    (results / "core.md").write_text(_markdown(record))
 
 
 def _timed(fn, clock=time.perf_counter) -> float:

@@ -24,11 +24,8 @@ import argparse
 import datetime
 import os
 import sys
-from pathlib import Path
 
 import _bench
-
-RESULTS = Path(__file__).resolve().parent / "results"
 
 
 def main() -> None:
@@ -37,7 +34,10 @@ def main() -> None:
     parser.add_argument("--slots", type=int, default=32)
     parser.add_argument("--steps", type=int, default=300)
     parser.add_argument("--rounds", type=int, default=5)
+    _bench.add_quick(parser)
     args = parser.parse_args()
+    if args.quick:
+        args.factors, args.steps, args.rounds = [1, 2], 50, 1
     _bench.pin()
     import jax
 
@@ -91,8 +91,7 @@ def main() -> None:
         "Goal 6: the last column stays at about 1 (cost proportional to nodes x steps).",
         "",
     ]
-    RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "cost_growth.md").write_text("\n".join(lines))
+    (_bench.results_dir(args.quick) / "cost_growth.md").write_text("\n".join(lines))
 
 
 if __name__ == "__main__":

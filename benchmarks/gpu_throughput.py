@@ -29,6 +29,8 @@ Without a GPU it says so, measures nothing and writes that to the results file.
     python benchmarks/gpu_throughput.py --platform cpu --slots 16 32 --sweep-n 64 \\
         --segments 2 --out /tmp/gpu.md                     # the script, on the CPU
     python benchmarks/gpu_throughput.py --platform cpu --stages reference  # the check's file
+    python benchmarks/gpu_throughput.py --quick   # the scan at 16 slots, 2 segments, on the
+                                                  # GPU if there is one, else the CPU
 """
 
 from __future__ import annotations
@@ -43,6 +45,7 @@ import time
 import traceback
 from pathlib import Path
 
+import _bench
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -338,10 +341,21 @@ def main() -> None:
         help="scan, check, sweep; reference (on the CPU: the check's reference file)",
     )  # fmt: skip
     parser.add_argument("--budget-s", type=float, default=420.0)
-    parser.add_argument("--out", type=Path, default=RESULTS / "gpu_latest.md")
+    parser.add_argument("--out", type=Path, default=None, help="default: gpu_latest.md")
+    _bench.add_quick(parser)
     args = parser.parse_args()
+    if args.out is None:
+        args.out = _bench.results_dir(args.quick) / "gpu_latest.md"
     start = time.perf_counter()
     import jax
+
+    if args.quick:
+        try:
+            args.platform = "gpu" if jax.devices("gpu") else "cpu"
+        except RuntimeError:
+            args.platform = "cpu"
+        args.slots, args.segments, args.stages, args.loops = [16], 2, ["scan"], ["blocks"]
+        args.budget_s = 60.0
 
     jax.config.update("jax_enable_x64", True)
     date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")

@@ -5,24 +5,27 @@ sweep on the small test mesh (each compiles its own programs), after `jax.clear_
 and prints how many distinct programs fit under vm.max_map_count. Linux only.
 
     python benchmarks/memory_maps.py            # writes benchmarks/results/memory_maps.md
+    python benchmarks/memory_maps.py --quick    # the same (it is small), to a scratch folder
 """
 
 from __future__ import annotations
 
+import argparse
 import datetime
 import gc
 import os
-from pathlib import Path
 
+import _bench
 import jax
 
 import msfd_jax as m
 from msfd_jax import _mappings
 
-OUT = Path(__file__).resolve().parent / "results" / "memory_maps.md"
-
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    _bench.add_quick(parser)
+    args = parser.parse_args()
     mesh = m.Mesh(ring_segments=6, beam_contact_segments=8, beam_outer_segments=2)
     settings = m.Settings(t_max=0.2, history_points=3, shape_times=())
     count = lambda: _mappings.usage()[0]  # noqa: E731
@@ -54,9 +57,7 @@ def main() -> None:
         "msfd_jax releases compiled programs above "
         f"{_mappings.RELEASE_AT:g} of the limit (`msfd_jax/_mappings.py`).",
     ]
-    text = "\n".join(lines) + "\n"
-    print(text)
-    OUT.write_text(text)
+    _bench.write_result("memory_maps.md", lines, args.quick)
 
 
 if __name__ == "__main__":

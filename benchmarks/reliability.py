@@ -6,13 +6,14 @@ seed, run through `msfd_jax.sweep` (the queue engine) on the paper's mesh with t
 default settings. Prints and writes ``benchmarks/results/reliability.{json,md}``: counts by
 status per seed and in all, the distribution of |energy balance error| / K0 among the runs
 that report success (settled, time limit), the time per row, and the worst rows with their
-inputs. ``--quick`` runs the small test mesh (6, 8 + 2) with fewer rows and writes
-``reliability_quick.{json,md}``. ``--collapse`` runs `Mesh(collapse_contacts=True)` on the
-designs whose slenderness that mesh's validity check allows (the others are counted as
-skipped) and writes ``reliability_collapse.{json,md}``. Rows record `retries` and `safety`
-(issue 12: failures a smaller step can fix and successes with an open balance are rerun).
+inputs. ``--quick`` runs the small test mesh (6, 8 + 2), seed 0, 24 rows, and writes
+``reliability_quick.{json,md}`` to a scratch folder (`_bench.results_dir`). ``--collapse``
+runs `Mesh(collapse_contacts=True)` on the designs whose slenderness that mesh's validity
+check allows (the others are counted as skipped) and writes ``reliability_collapse.{json,md}``.
+Rows record `retries` and `safety` (issue 12: failures a smaller step can fix and successes
+with an open balance are rerun).
 
-    taskset -c 1 python benchmarks/reliability.py --seeds 0 1 2 --n 200
+    taskset -c 1 python benchmarks/reliability.py --seeds 0 1 2 --n 100   # the current result
     taskset -c 1 python benchmarks/reliability.py --quick
     taskset -c 1 python benchmarks/reliability.py --t-max 10   # the former fixed cap
     taskset -c 0 python benchmarks/reliability.py --seeds 0 --n 100 --collapse
@@ -25,8 +26,8 @@ import dataclasses
 import json
 import platform
 import time
-from pathlib import Path
 
+import _bench
 import numpy as np
 
 import msfd_jax as m
@@ -35,7 +36,6 @@ from msfd_jax._params import _check_collapse
 from msfd_jax._provenance import now, versions
 from msfd_jax._sweep import SWEEP_SETTINGS, sweep
 
-RESULTS = Path(__file__).parent / "results"
 RANGES = {  # log-uniform
     "thickness_ratio": (0.2, 8.0),
     "mass_ratio": (0.5, 200.0),
@@ -167,9 +167,11 @@ def markdown(record: dict) -> str:
 
 def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--seeds", type=int, nargs="+", default=None, help="0 1 2 (quick: 0)")
     parser.add_argument("--n", type=int, default=None, help="rows per seed (200; quick 24)")
-    parser.add_argument("--quick", action="store_true", help="small mesh, 24 rows per seed")
+    parser.add_argument(
+        "--quick", action="store_true", help="small mesh, seed 0, 24 rows, to a scratch folder"
+    )
     parser.add_argument("--t-max", type=float, default=None, help="a fixed cap (default: auto)")
     parser.add_argument("--worst", type=int, default=12, help="worst rows listed")
     parser.add_argument("--collapse", action="store_true", help="Mesh(collapse_contacts=True)")
@@ -181,6 +183,8 @@ def main(argv=None) -> dict:
     parser.add_argument("--name", default=None, help="output name (default reliability[_quick])")
     args = parser.parse_args(argv)
     n = args.n or (24 if args.quick else 200)
+    if args.seeds is None:
+        args.seeds = [0] if args.quick else [0, 1, 2]
     mesh = m.Mesh(6, 8, 2) if args.quick else m.Mesh()
     mesh = dataclasses.replace(mesh, collapse_contacts=args.collapse)
     settings = SWEEP_SETTINGS
@@ -226,10 +230,10 @@ def main(argv=None) -> dict:
     name = args.name or (
         "reliability" + ("_quick" if args.quick else "") + ("_collapse" if args.collapse else "")
     )
-    RESULTS.mkdir(exist_ok=True)
-    (RESULTS / f"{name}.json").write_text(json.dumps(record, indent=1) + "\n")
+    results = _bench.results_dir(args.quick)
+    (results / f"{name}.json").write_text(json.dumps(record, indent=1) + "\n")
     text = markdown(record)
-    (RESULTS / f"{name}.md").write_text(text)
+    (results / f"{name}.md").write_text(text)
     print(text)
     return record
 

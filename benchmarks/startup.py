@@ -12,6 +12,7 @@ Child processes run without ``PYTHONDONTWRITEBYTECODE`` (as an installed package
 byte code pip writes): otherwise every process recompiles the package's sources.
 
     python benchmarks/startup.py [--repeats 3] [--against SRC]   # benchmarks/results/startup.md
+    python benchmarks/startup.py --quick      # one warm process, to a scratch folder
 """
 
 from __future__ import annotations
@@ -28,7 +29,8 @@ import tempfile
 import time
 from pathlib import Path
 
-RESULTS = Path(__file__).resolve().parent / "results"
+import _bench
+
 FLOOR = {
     "python -c pass": "pass",
     "import jax; one op": "import jax; jax.numpy.zeros(1).block_until_ready()",
@@ -57,7 +59,7 @@ def timed(cmd: list[str], env: dict[str, str]) -> tuple[float, float, str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--output", type=Path, default=RESULTS / "startup.md")
+    parser.add_argument("--output", type=Path, default=None, help="default: startup.md")
     parser.add_argument(
         "--against",
         type=Path,
@@ -65,7 +67,12 @@ def main() -> None:
         help="another source tree (e.g. `git archive COMMIT | tar -x -C SRC`): its warm "
         "runs alternate with this tree's, each with its own cache (a fair before/after)",
     )
+    _bench.add_quick(parser)
     args = parser.parse_args()
+    if args.quick:
+        args.repeats = 1
+    if args.output is None:
+        args.output = _bench.results_dir(args.quick) / "startup.md"
     base = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     trees = {"this tree": Path(__file__).resolve().parent.parent}
     if args.against is not None:
@@ -107,6 +114,7 @@ def write(args: argparse.Namespace, rows: list, floor: list) -> None:
     date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     load = os.getloadavg()[0]
     against = "" if args.against is None else f" --against {args.against}"
+    against += " --quick" if args.quick else ""
     lines = [
         "# New-process `msfd run --json` (issue 11, goal 4: <= 2 s with a warm cache)",
         "",

@@ -11,6 +11,7 @@ per core by default), ``--workers 1`` (one core), and a LocalCluster of two work
     python benchmarks/sweep_1024.py --only plain --against SRC --repeats 2
         # this tree against another (`git archive COMMIT | tar -x -C SRC`), side by side
     python benchmarks/sweep_1024.py --grid small ...   # 16 collisions instead (set-up cost)
+    python benchmarks/sweep_1024.py --quick    # = --grid small --only plain, to a scratch folder
 
 With ``--against`` each tree has its own cache; the cold processes run first (this tree, then
 SRC), then the warm ones alternate, the order swapping each round, so a machine that is
@@ -28,7 +29,8 @@ import tempfile
 import time
 from pathlib import Path
 
-RESULTS = Path(__file__).resolve().parent / "results"
+import _bench
+
 GRID = [
     "--thickness-ratio", "0.25:5:64", "--axial-constraint", "both",
     "--mass-ratio", "5,10,20,40", "--velocity", "0.6,0.82", "-q",
@@ -62,13 +64,18 @@ def run(extra: list[str], cache: str, src: Path | None = None, grid=GRID) -> tup
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", nargs="+", choices=list(KEYS), default=list(KEYS))
-    parser.add_argument("--output", type=Path, default=RESULTS / "sweep_1024.md")
+    parser.add_argument("--output", type=Path, default=None, help="default: sweep_1024.md")
     parser.add_argument("--against", type=Path, metavar="SRC", help="another source tree")
     parser.add_argument("--repeats", type=int, default=1, help="warm processes per tree")
     parser.add_argument(
         "--grid", choices=("goal2", "small"), default="goal2", help="goal 2's 1024 or 16"
     )
+    _bench.add_quick(parser)
     args = parser.parse_args()
+    if args.quick:
+        args.grid, args.only = "small", ["plain"]
+    if args.output is None:
+        args.output = _bench.results_dir(args.quick) / "sweep_1024.md"
     grid = GRID if args.grid == "goal2" else SMALL
     trees = {"this tree": None}
     if args.against is not None:
@@ -94,7 +101,8 @@ def main() -> None:
     lines = [
         "# 1024 paper-mesh collisions with plain `msfd sweep` (issue 11, goal 2: <= 30 s)",
         "",
-        f"`python benchmarks/sweep_1024.py {' '.join(sys.argv[1:])}` · {date} · 2 cores",
+        f"`python benchmarks/sweep_1024.py {' '.join(sys.argv[1:])}` · {date} · "
+        f"{os.cpu_count()} cores",
         "",
         f"Grid: `msfd sweep {' '.join(grid)}`",
         "",

@@ -4,11 +4,13 @@
 ``msfd_jax.sweep`` (one worker, 32 slots, the queue with its refills, retries and tail) with
 ``Settings.contact_loop`` "blocks" and "listed" in turn, `--repeats` times each (the first of
 each compiles; run times exclude compilation, `_sweep.LAST_TIMING`), and compares the tables.
-The collisions: `--count` drawn from goal 2's grid (`sweep_budget.GRID`, seed 0), on the
+The collisions: `--count` drawn from goal 2's grid (`_bench.GRID`, seed 0), on the
 paper's mesh times `--factor`.
 
-    python benchmarks/sweep_loops.py                 # writes benchmarks/results/sweep_loops.md
-    python benchmarks/sweep_loops.py --count 64 --factor 2
+    python benchmarks/sweep_loops.py --count 192 --factor 1   # each factor's section of
+    python benchmarks/sweep_loops.py --count 64 --factor 2    # benchmarks/results/sweep_loops.md
+    python benchmarks/sweep_loops.py --count 64 --factor 4    # (the section replaced, or added)
+    python benchmarks/sweep_loops.py --quick                  # 8 collisions, one run each
 
 Re-executes itself under ``taskset -c 0`` when available (MSFD_BENCH_CORE picks the core).
 """
@@ -22,7 +24,6 @@ import os
 
 import _bench
 import numpy as np
-from sweep_budget import GRID
 
 COLUMNS = ("beam_bending", "beam_axial", "ring_bending", "ring_axial", "contact", "t_end")
 
@@ -32,7 +33,10 @@ def main() -> None:
     parser.add_argument("--count", type=int, default=192)
     parser.add_argument("--factor", type=int, default=1)
     parser.add_argument("--repeats", type=int, default=2)
+    _bench.add_quick(parser)
     args = parser.parse_args()
+    if args.quick:
+        args.count, args.factor, args.repeats = 8, 1, 1
     _bench.pin()
     import jax
 
@@ -40,7 +44,8 @@ def main() -> None:
     import msfd_jax as m
     from msfd_jax import _sweep
 
-    rows = [dict(zip(GRID, v, strict=True)) for v in itertools.product(*GRID.values())]
+    grid = _bench.GRID
+    rows = [dict(zip(grid, v, strict=True)) for v in itertools.product(*grid.values())]
     pick = np.random.default_rng(0).choice(len(rows), args.count, replace=False)
     collisions = [rows[i] for i in pick]
     mesh = _bench.scaled_mesh(args.factor)
@@ -60,9 +65,10 @@ def main() -> None:
     date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     per = {k: 1e6 * best[k] / steps[k] for k in best}
     lines = [
-        "# A sweep with each contact loop, side by side (issue 11)",
+        f"## Paper mesh x{args.factor}",
         "",
-        f"`python benchmarks/sweep_loops.py --count {args.count} --factor {args.factor}` · "
+        f"`python benchmarks/sweep_loops.py --count {args.count} --factor {args.factor}"
+        f"{' --quick' if args.quick else ''}` · "
         f"{date} · core(s) {sorted(os.sched_getaffinity(0))} · jax {jax.__version__} · "
         f"{args.count} collisions of goal 2's grid (seed 0), paper mesh x{args.factor}, one "
         f"worker of 32 slots, best of {args.repeats} runs each (compilation apart)",
@@ -80,8 +86,25 @@ def main() -> None:
         + ", ".join(f"{c} {v:.1e}" for c, v in diff.items())
         + " (fractions of K0; t_end in tau).",
     ]
-    suffix = "" if args.factor == 1 else f"_x{args.factor}"
-    _bench.write_result(f"sweep_loops{suffix}.md", lines)
+    _write_section(_bench.results_dir(args.quick) / "sweep_loops.md", args.factor, lines)
+
+
+TITLE = "# A sweep with each contact loop, side by side (issue 11)"
+
+
+def _write_section(path, factor: int, lines: list[str]) -> None:
+    """Replace (or add) the section of mesh x`factor` in `path`, sections sorted by factor."""
+    import re
+
+    text = path.read_text() if path.exists() else TITLE + "\n"
+    sections = dict(
+        (int(m.group(1)), m.group(0).strip())
+        for m in re.finditer(r"^## Paper mesh x(\d+)\n.*?(?=^## |\Z)", text, re.M | re.S)
+    )
+    sections[factor] = "\n".join(lines).strip()
+    body = "\n\n".join(sections[k] for k in sorted(sections))
+    path.write_text(f"{TITLE}\n\n{body}\n")
+    print(sections[factor])
 
 
 if __name__ == "__main__":

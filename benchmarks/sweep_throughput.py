@@ -2,7 +2,9 @@
 
 A 64-collision sweep (h_b/h_r from 0.25 to 5 in 16 steps x free/constrained x g = 5, 10; the
 paper's v0 = 0.82, Fig. 10) runs on the paper's mesh (15, 20 + 5) and on the small test mesh
-(6, 8 + 2) with chunk sizes 1, 8, 32, 64. Each configuration is compiled first on one chunk
+(6, 8 + 2) with chunk sizes 16, 32, 64 (the batched core rounds a chunk up to a power of
+two from 16; the committed sweep.md is of 2026-12-01, before it, with chunks 1, 8, 32, 64).
+Each configuration is compiled first on one chunk
 (same `max_steps`, so the same program), then the whole sweep is timed: collisions/s exclude
 compilation. ``--shard`` re-runs with each chunk split across all JAX devices; on CPU start it
 as ``XLA_FLAGS=--xla_force_host_platform_device_count=2 python benchmarks/sweep_throughput.py
@@ -11,6 +13,7 @@ count). Results are merged into ``benchmarks/results/sweep.json``
 and rewritten as ``sweep.md``.
 
     python benchmarks/sweep_throughput.py                 # unsharded, both meshes
+    python benchmarks/sweep_throughput.py --quick         # small mesh, chunk 16
     XLA_FLAGS=--xla_force_host_platform_device_count=2 \
         python benchmarks/sweep_throughput.py --shard --chunks 2 8 32 64   # two host devices
 """
@@ -26,6 +29,7 @@ import sys
 import time
 from pathlib import Path
 
+import _bench
 import equinox as eqx
 import jax
 import numpy as np
@@ -33,7 +37,6 @@ import numpy as np
 import msfd_jax as m
 from msfd_jax._sweep import SWEEP_SETTINGS, collisions, step_bound, sweep
 
-RESULTS = Path(__file__).parent / "results"
 MESHES = {"paper": m.Mesh(), "small": m.Mesh(6, 8, 2)}
 GRID = {
     "thickness_ratio": np.linspace(0.25, 5.0, 16),
@@ -92,8 +95,8 @@ def _points():
     return list(itertools.product(*GRID.values()))
 
 
-def write(records: list[dict]) -> None:
-    path = RESULTS / "sweep.json"
+def write(records: list[dict], results: Path) -> None:
+    path = results / "sweep.json"
     old = json.loads(path.read_text())["runs"] if path.exists() else []
     key = lambda r: (r["mesh"], r["chunk_size"], r["shard"], r["devices"])  # noqa: E731
     merged = {key(r): r for r in [*old, *records]}
@@ -127,7 +130,7 @@ def write(records: list[dict]) -> None:
             f"{r['wall_s']:.3g} | {r['first_chunk_with_compile_s']:.3g} | "
             f"{r['mean_steps']:.0f} | {r['verlet_steps_per_s']:.3g} | {r['failed']} |"
         )
-    (RESULTS / "sweep.md").write_text("\n".join(lines) + "\n")
+    (results / "sweep.md").write_text("\n".join(lines) + "\n")
 
 
 def _grid_text() -> str:
@@ -140,15 +143,19 @@ def _grid_text() -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--meshes", nargs="+", default=list(MESHES), choices=list(MESHES))
-    parser.add_argument("--chunks", nargs="+", type=int, default=[1, 8, 32, 64])
+    parser.add_argument("--chunks", nargs="+", type=int, default=[16, 32, 64])
     parser.add_argument("--shard", action="store_true", help="split chunks across devices")
+    _bench.add_quick(parser)
     args = parser.parse_args()
+    if args.quick:
+        args.meshes, args.chunks = ["small"], [16]
+    results = _bench.results_dir(args.quick)
     records = []
     for mesh_name in args.meshes:
         settings = bounded_settings(MESHES[mesh_name])
         for chunk in args.chunks:
             records.append(measure(mesh_name, chunk, args.shard, settings))
-            write(records)
+            write(records, results)
 
 
 if __name__ == "__main__":

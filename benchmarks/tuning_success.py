@@ -14,14 +14,16 @@ quickstart notebook's: the paper's mesh costs 25-60 s per tuning on this shared 
 Writes benchmarks/results/tuning_success.md.
 
     python benchmarks/tuning_success.py
+    python benchmarks/tuning_success.py --quick   # held beam, 5-point grid, one target, one start
 """
 
 from __future__ import annotations
 
+import argparse
 import platform
 import time
-from pathlib import Path
 
+import _bench
 import jax
 import numpy as np
 
@@ -33,7 +35,6 @@ STARTS = (0.5, 1.5, 3.0, 5.0)
 FRACTIONS = (0.1, 0.3, 0.5, 0.7, 0.9)
 GRID = np.linspace(0.5, 5.0, 19)
 TOLERANCE = 0.01
-OUT = Path(__file__).parent / "results" / "tuning_success.md"
 
 
 def _beam(fractions) -> float:
@@ -41,12 +42,20 @@ def _beam(fractions) -> float:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    _bench.add_quick(parser)
+    args = parser.parse_args()
+    beams = ((0.0, "free beam"), (1.0, "axially constrained beam"))
+    grid, fractions, starts = GRID, FRACTIONS, STARTS
+    if args.quick:
+        beams, grid, fractions, starts = beams[1:], np.linspace(0.5, 5.0, 5), (0.5,), (2.5,)
     start_all = time.perf_counter()
     box = o.default_box(o.Design(thickness_ratio=2.5))
     lines = [
         "# optimise: tuning success from several starts (coarse mesh, until settled)",
         "",
-        f"Produced by `python benchmarks/tuning_success.py`; jax {jax.__version__}, "
+        f"Produced by `python benchmarks/tuning_success.py{' --quick' * args.quick}`; "
+        f"jax {jax.__version__}, "
         f"{platform.machine()}; mesh {MESH.ring_segments} ring segments, "
         f"{MESH.beam_contact_segments} + {MESH.beam_outer_segments} beam segments (the paper's: "
         "15, 20 + 5); the showcase otherwise (g = 10, v0 = 0.82), default `Settings`; forward "
@@ -58,12 +67,12 @@ def main() -> None:
         "it; evaluations = sharp evaluations (each gradient step adds one jvp).",
     ]
     summary = []
-    for constraint, label in ((0.0, "free beam"), (1.0, "axially constrained beam")):
+    for constraint, label in beams:
         params = m.CollisionParams(axial_constraint=constraint)
         problem = o.make_problem(params, MESH, m.Settings(), box)
         goal0 = o.objective(o.TargetShare("beam", 0.5))
         shares = [
-            _beam(o.evaluate(o.Design(thickness_ratio=h), problem, goal0).fractions) for h in GRID
+            _beam(o.evaluate(o.Design(thickness_ratio=h), problem, goal0).fractions) for h in grid
         ]
         lo, hi = min(shares), max(shares)
         lines += [
@@ -71,7 +80,7 @@ def main() -> None:
             f"## {label}",
             "",
             "Sharp beam share over h_b/h_r: "
-            + ", ".join(f"{h:.2f}: {s:.3f}" for h, s in zip(GRID, shares, strict=True))
+            + ", ".join(f"{h:.2f}: {s:.3f}" for h, s in zip(grid, shares, strict=True))
             + f". Range [{lo:.4f}, {hi:.4f}].",
             "",
             "| start h_b/h_r | target | status | by | evaluations | found h_b/h_r | sharp beam "
@@ -79,10 +88,10 @@ def main() -> None:
             "|---|---|---|---|---|---|---|---|---|",
         ]
         counts = {"converged": 0, "gradient": 0, "runs": 0}
-        for fraction in FRACTIONS:
+        for fraction in fractions:
             target = round(lo + fraction * (hi - lo), 4)
             goal = o.objective(o.TargetShare("beam", target))
-            for start in STARTS:
+            for start in starts:
                 r = o.tune(o.Design(thickness_ratio=start), problem, goal, box=box, progress=None)
                 by = "-" if r.status != "converged" else (
                     "bracketing" if r.bracketing_steps else "gradient"
@@ -106,7 +115,7 @@ def main() -> None:
             "",
         ]
         for target in (round(hi + 0.05, 4), round(lo - 0.05, 4)):
-            if target < 0:
+            if target < 0 or args.quick:
                 continue
             goal = o.objective(o.TargetShare("beam", target))
             r = o.tune(o.Design(thickness_ratio=2.5), problem, goal, box=box, progress=None)
@@ -121,8 +130,7 @@ def main() -> None:
             "the gradient steps alone."
         )
     lines += ["", f"Total wall time {time.perf_counter() - start_all:.0f} s."]
-    OUT.write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    _bench.write_result("tuning_success.md", lines, args.quick)
 
 
 if __name__ == "__main__":

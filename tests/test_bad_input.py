@@ -1,6 +1,6 @@
 """Every row of docs/bad_input.md is a test (issue 5 item 3).
 
-The cases live in benchmarks/bad_input_table.py (which also writes the table). A clean refusal
+The cases live in tests/bad_input_cases.py (which also writes the table). A clean refusal
 is the expected exception (CLI: exit code) with a message naming the parameter and, where one
 applies, the allowed range. The known gaps (inputs not refused cleanly) are strict xfails:
 when one gets fixed the test fails, asking for the table to be regenerated.
@@ -15,10 +15,10 @@ from pathlib import Path
 
 import pytest
 
-_PATH = Path(__file__).parents[1] / "benchmarks" / "bad_input_table.py"
-_SPEC = importlib.util.spec_from_file_location("bad_input_table", _PATH)
+_PATH = Path(__file__).parent / "bad_input_cases.py"
+_SPEC = importlib.util.spec_from_file_location("bad_input_cases", _PATH)
 table = importlib.util.module_from_spec(_SPEC)
-sys.modules["bad_input_table"] = table  # dataclasses look their module up
+sys.modules["bad_input_cases"] = table  # dataclasses look their module up
 _SPEC.loader.exec_module(table)
 
 

@@ -1,10 +1,10 @@
-"""The recorded partitions of issue 11's baseline (benchmarks/results/regression_baseline.json).
+"""The recorded partitions of issue 11's baseline (tests/data/regression_baseline.json).
 
 The batched core (issue 11) reproduces the showcase and the thick beam to 1e-12 K0 with the
 same steps. The thin free beam with sharp contact cannot be held to 1e-9: moving its impact
 velocity by one ulp moves its partition by 1.2e-3 K0 and its steps by 48, in the old core as
 in the new (`python -m msfd_jax.studies.scripts.rounding_sensitivity`; the old core's record is
-benchmarks/results/core_rewrite/sensitivity_old_core.json). Its recorded value is defined only
+tests/data/sensitivity_old_core.json). Its recorded value is defined only
 to that spread, so it is checked to 3e-3 K0 and 1 % of its steps, and, with the contact
 smoothed (w = 1e-3, one-ulp spread 4e-8 K0), against the old core's record to 1e-7 K0 with
 equal steps.
@@ -32,12 +32,10 @@ from msfd_jax._attempts import first_attempts
 from msfd_jax._results import BALANCE_TOLERANCE
 from msfd_jax.studies.scripts.regression_baseline import FRACTIONS, SINGLES, TOLERANCE
 
-RESULTS = Path(__file__).parents[1] / "benchmarks" / "results"
-OLD_CORE = json.loads((RESULTS / "core_rewrite" / "sensitivity_old_core.json").read_text())
+DATA = Path(__file__).parent / "data"
+OLD_CORE = json.loads((DATA / "sensitivity_old_core.json").read_text())
 ROUNDING_LIMITED = {"thin_free": (3e-3, 0.01)}  # K0, relative steps: the one-ulp spread x 2.5
-RECORD = json.loads(
-    (Path(__file__).parents[1] / "benchmarks" / "results" / "regression_baseline.json").read_text()
-)
+RECORD = json.loads((DATA / "regression_baseline.json").read_text())
 
 
 @pytest.mark.parametrize("name", list(SINGLES))

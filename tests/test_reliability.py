@@ -24,7 +24,7 @@ from msfd_jax._safe import unwrap_near
 from msfd_jax._sweep import SWEEP_SETTINGS
 
 # a heavy, slow impact on a free beam: hit the former fixed cap tau = 10 with dissipation
-# still going (paper mesh: benchmarks/results/reliability_before.json, seed 0), settles later
+# still going (paper mesh: reliability_before.json of commit 4a9f7f2, seed 0), settles later
 HEAVY_SLOW = dict(
     thickness_ratio=3.27, mass_ratio=86.8, velocity=0.393, modulus_ratio=113.0,
     slenderness=10.6, axial_constraint=0.0,

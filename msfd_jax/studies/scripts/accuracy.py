@@ -1,13 +1,13 @@
-"""Work-precision study (issue 5, item 1): writes benchmarks/results/accuracy.* and the figures.
+"""Work-precision study (issue 5, item 1): writes docs/results/accuracy.* and the figures.
 
 Parts (each writes its own JSON, the markdown is rebuilt from every JSON present):
 
 - ``study``: error against wall time for three collisions and every method
-  (msfd_jax/studies/accuracy/; benchmarks/results/accuracy.json, docs/figures/accuracy_*.png);
+  (msfd_jax/studies/accuracy/; docs/results/accuracy.json, docs/figures/accuracy_*.png);
 - ``stability``: the stability catalogue's finishing scenes at a candidate default step
-  (benchmarks/results/accuracy_stability.json);
+  (docs/results/accuracy_stability.json);
 - ``mesh``: the dissipated fractions on the paper mesh refined x4 and x8, extending
-  benchmarks/results/convergence.md (benchmarks/results/accuracy_mesh.json).
+  docs/results/convergence.md (docs/results/accuracy_mesh.json).
 
     taskset -c 1 python -m msfd_jax.studies.scripts.accuracy --parts study  # ~30-60 min
     python -m msfd_jax.studies.scripts.accuracy --parts study --quick  # coarse mesh, minutes
@@ -33,7 +33,7 @@ import jax
 from msfd_jax.studies import accuracy as A
 
 ROOT = Path(__file__).resolve().parents[3]
-RESULTS = ROOT / "benchmarks" / "results"
+RESULTS = ROOT / "docs" / "results"
 FIGURES = ROOT / "docs" / "figures"
 
 

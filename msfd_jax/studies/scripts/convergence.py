@@ -3,7 +3,7 @@
 Three collisions (g = 10, v0 = 0.82): the showcase (h_b/h_r = 2.5, constrained), a thin free
 beam (0.5, free) and a thick constrained beam (4.0), each on the paper's mesh refined x1, x2,
 x4 (every segment count multiplied; the step follows the computed stability limit).
-Writes benchmarks/results/convergence.md.
+Writes docs/results/convergence.md.
 
     python -m msfd_jax.studies.scripts.convergence            # x1, x2, x4 (several minutes)
     python -m msfd_jax.studies.scripts.convergence --factors 1 2
@@ -69,7 +69,7 @@ def main(argv=None) -> int:
             )
         lines.append("")
     text = "\n".join(lines)
-    (ROOT / "benchmarks" / "results" / "convergence.md").write_text(text + "\n")
+    (ROOT / "docs" / "results" / "convergence.md").write_text(text + "\n")
     print(text)
     return 0
 

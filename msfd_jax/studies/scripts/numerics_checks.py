@@ -11,7 +11,7 @@
   (tests/test_reproduction.py).
 
     python -m msfd_jax.studies.scripts.numerics_checks     # ~5 min on the 2-core machine
-Writes benchmarks/results/numerics_checks.md.
+Writes docs/results/numerics_checks.md.
 """
 
 from __future__ import annotations
@@ -241,7 +241,7 @@ def main() -> int:
         part(lines)
         print("\n".join(lines[-8:]), flush=True)
     text = "\n".join(lines)
-    (ROOT / "benchmarks" / "results" / "numerics_checks.md").write_text(text + "\n")
+    (ROOT / "docs" / "results" / "numerics_checks.md").write_text(text + "\n")
     print(text)
     return 0
 

@@ -4,7 +4,7 @@ The paper's mesh has 15 ring segments on the quarter ring, so the Appendix's hin
 is not a joint (joints every 6 deg: 42 and 48 deg). This study drives the MS-FD ring onto the
 plate (v = 0.02, as Fig. 17c) with 15, 16 and 32 segments and compares each with the
 rigid-plastic curve of the Appendix (incremental limit analysis) on the same polygon (16, 32)
-and on the fine one (240). Writes benchmarks/results/plate_mesh.md.
+and on the fine one (240). Writes docs/results/plate_mesh.md.
 
     python -m msfd_jax.studies.scripts.plate_mesh_study
 """
@@ -27,7 +27,7 @@ from msfd_jax.studies.reproduce.quasistatic import (
     work_mean,
 )
 
-RESULTS = Path(__file__).resolve().parents[3] / "benchmarks" / "results"
+RESULTS = Path(__file__).resolve().parents[3] / "docs" / "results"
 SPEED = 0.02
 
 

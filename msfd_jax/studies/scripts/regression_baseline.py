@@ -18,7 +18,7 @@ rounding-sensitive if its difference is within `SPREAD_FACTOR` times that spread
 beams with sharp contact: the core's rewrite moved them as much as a few ulps do;
 tests/test_regression.py). ~5 min.
 
-Writes benchmarks/results/regression_baseline.json; `tests/test_regression.py` checks the
+Writes tests/data/regression_baseline.json; `tests/test_regression.py` checks the
 single collisions against it on every run of the suite. The record is of the core's first
 attempts: the rerun of successes whose balance stays open (issue 12 item 1, later) is off
 here (`_attempts.first_attempts`); failure retries are on but none of these runs fails.
@@ -40,7 +40,7 @@ import msfd_jax as m
 from msfd_jax._attempts import first_attempts
 
 ROOT = Path(__file__).resolve().parents[3]
-OUT = ROOT / "benchmarks" / "results" / "regression_baseline.json"
+OUT = ROOT / "tests" / "data" / "regression_baseline.json"
 COMMAND = "python -m msfd_jax.studies.scripts.regression_baseline"
 SINGLES = {
     "showcase": {},

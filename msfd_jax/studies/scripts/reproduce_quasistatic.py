@@ -1,7 +1,7 @@
 """The paper's quasi-static results: Fig. 17c, Fig. 18/22, Eq. 25 and Parkes (issue 3).
 
 Runs `msfd_jax.studies.reproduce.quasistatic` (paper mesh unless --quick), writes the figures
-docs/figures/{fig17c,fig18_fig22,eq25_parkes}.png and the markdown benchmarks/results/
+docs/figures/{fig17c,fig18_fig22,eq25_parkes}.png and the markdown docs/results/
 quasistatic.md (+ quasistatic.json with the numbers).
 
     python -m msfd_jax.studies.scripts.reproduce_quasistatic [--quick]  # ~5 min (quick ~2 min)
@@ -23,7 +23,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--figures", type=Path, default=ROOT / "docs" / "figures")
-    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "results")
     args = parser.parse_args()
     results = [
         f(args.quick, args.figures)

@@ -9,7 +9,7 @@ changes the order of floating-point operations can: such a collision amplifies r
     python -m msfd_jax.studies.scripts.rounding_sensitivity            # ~2 min
     python -m msfd_jax.studies.scripts.rounding_sensitivity --out PATH
 
-Writes benchmarks/results/core_rewrite/sensitivity.json (this core). The same script run on
+Writes tests/data/sensitivity.json (this core). The same script run on
 the core before the rewrite (commit 47e72ae) wrote sensitivity_old_core.json beside it;
 tests/test_regression.py checks the smoothed thin free beam against that record.
 """
@@ -27,7 +27,7 @@ import msfd_jax as m
 from .regression_baseline import SINGLES
 
 ROOT = Path(__file__).resolve().parents[3]
-OUT = ROOT / "benchmarks" / "results" / "core_rewrite" / "sensitivity.json"
+OUT = ROOT / "tests" / "data" / "sensitivity.json"
 SMOOTHINGS = (0.0, 1e-3)
 
 

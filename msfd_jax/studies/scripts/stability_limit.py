@@ -8,7 +8,7 @@ sub-steps); a run counts as unstable when the energy guard (0.05 K0) or the non-
 stops it.
 
     python -m msfd_jax.studies.scripts.stability_limit        # ~5 min on the 2-core machine
-Writes benchmarks/results/stability_limit.md.
+Writes docs/results/stability_limit.md.
 """
 
 from __future__ import annotations
@@ -90,7 +90,7 @@ def main():
         )
         print(lines[-1], flush=True)
     lines += ["", f"{time.perf_counter() - start:.0f} s in all.", ""]
-    out = ROOT / "benchmarks" / "results" / "stability_limit.md"
+    out = ROOT / "docs" / "results" / "stability_limit.md"
     out.write_text("\n".join(lines))
     print(f"wrote {out}")
 

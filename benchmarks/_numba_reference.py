@@ -19,7 +19,7 @@ Same model and step as ``msfd_jax.simulate`` for a ring-on-beam scene:
 
 Only the constants come from JAX; the time loop and the forces are pure numba.
 
-Run ``python benchmarks/numba_reference.py`` to compare with msfd_jax on the showcase.
+Run ``python benchmarks/_numba_reference.py`` to compare with msfd_jax on the showcase.
 """
 
 from __future__ import annotations
