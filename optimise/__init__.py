@@ -6,7 +6,13 @@ Imports `msfd_jax`; `msfd_jax` never imports this package (its CLI loads it lazi
 
 from ._conditions import Conditions
 from ._design import DEFAULT_BOUNDS, Box, Design, default_box, project
-from ._gradient import MODES, finite_difference, gradient
+from ._gradient import (
+    DEFAULT_SMOOTHING,
+    MODES,
+    SharpGradientWarning,
+    finite_difference,
+    gradient,
+)
 from ._objective import (
     STRUCTURES,
     AbstractTerm,
@@ -28,6 +34,8 @@ __all__ = [
     "achievable_range",
     "tune",
     "DEFAULT_BOUNDS",
+    "DEFAULT_SMOOTHING",
+    "SharpGradientWarning",
     "MODES",
     "STRUCTURES",
     "AbstractTerm",

@@ -8,6 +8,11 @@ Robust tuning: ``--velocity-samples 0.6 0.82 1.0 --mass-samples 5 10 20`` tunes 
 split over every combination of the samples (9 collisions, vmapped in one program; with
 ``--pair-samples`` sample i is (v_i, g_i) instead), and the JSON adds each sample's fractions.
 
+With SI inputs (``--si``, ``--impact-speed``, ``--block-mass``, ... as for ``msfd run``), the
+result also gives the beam thickness in mm, h_b = (h_b/h_r) h_r (text, and ``"si"`` in the
+JSON: ``beam_thickness_mm``, ``ring_thickness_mm``, the bounds in mm); the tuned variable stays
+the ratio h_b/h_r (``--thickness-bounds`` are ratios).
+
 Exit codes: 0 target met by the sharp model, 2 bad input, 3 a failed solve, 4 target not met
 (``unreachable`` within the bounds, or not converged); the JSON says which.
 """
@@ -151,7 +156,7 @@ def _conditions(args: argparse.Namespace) -> Conditions | None:
 
 
 def tune_command(args: argparse.Namespace) -> int:
-    params, _ = cli.checked(cli.collision_from_args, args)
+    params, scales = cli.checked(cli.collision_from_args, args)
     mesh, settings = (
         cli.checked(cli.mesh_from_args, args),
         cli.checked(cli.settings_from_args, args),
@@ -191,15 +196,40 @@ def tune_command(args: argparse.Namespace) -> int:
     finally:
         if progress is not None:
             progress.close()
+    si = None if scales is None else si_thickness(result, params, scales, args.thickness_bounds)
     if args.json:
-        print(json.dumps(result.to_json()))
+        # strict JSON (allow_nan=False): a number that is not finite raises, never writes NaN
+        print(json.dumps({**result.to_json(), **({"si": si} if si else {})}, allow_nan=False))
     else:
-        print(report(result))
+        print(report(result, si))
     return cli.EXIT_OK if result.status == "converged" else EXIT_NOT_MET
 
 
-def report(result) -> str:
+def si_thickness(result, params: m.CollisionParams, scales: m.Scales, bounds) -> dict:
+    """The found design in SI: beam thickness h_b = (h_b/h_r) h_r, in mm.
+
+    The ring thickness is h_r = R / (R/h_r): the length scale over the slenderness, so it is
+    read from what `from_si` made of the SI inputs, whatever they were called.
+    """
+    ring = scales.length / float(params.slenderness)  # h_r [m]
+    ratio = float(result.design.thickness_ratio)
+    return {
+        "thickness_ratio": ratio,
+        "ring_thickness_mm": 1e3 * ring,
+        "beam_thickness_mm": 1e3 * ratio * ring,
+        "beam_thickness_bounds_mm": [1e3 * float(b) * ring for b in bounds],
+    }
+
+
+def report(result, si: dict | None = None) -> str:
     lines = [result.message, "", "sharp-model energy partition at the design (fractions of K0)"]
+    if si is not None:
+        low, high = si["beam_thickness_bounds_mm"]
+        lines[1:1] = [
+            f"beam thickness h_b = {si['beam_thickness_mm']:.2f} mm "
+            f"(h_b/h_r = {si['thickness_ratio']:.4f} x ring thickness "
+            f"{si['ring_thickness_mm']:.2f} mm; bounds {low:.2f}-{high:.2f} mm)"
+        ]
     for key in m.FRACTION_KEYS:
         lines.append(f"  {key:<13} {result.fractions[key]:8.4f}")
     if result.samples is not None:

@@ -14,10 +14,22 @@ Both modes differentiate the same discrete map: the time step is held fixed (``m
 stops its gradient), so a finite difference agrees with them only at a fixed ``Settings.dt``
 and on a smoothed model (``yield_smoothing`` and ``contact_smoothing`` > 0); the sharp model's
 derivative is exact for its discrete map but jagged in the design (issue 4).
+
+**The sharp model has no design gradient.** With ``yield_smoothing == contact_smoothing == 0``
+a run of a few thousand steps switches contact and yield hundreds of times; the exact
+derivative of that discrete map is dominated by the switches (measured on ``Mesh(8, 10, 3)``,
+h_b/h_r = 2.5: d(ring bending)/d(h_b/h_r) = +203 at ``dt = 2e-4``, -1.9e7 at the derived
+step, while central differences of the sharp model over h = 0.02-0.1 give 0.10-0.36, and the
+smoothed model's derivative, 0.218, matches its own central differences to 3e-4). So
+`gradient` differentiates the smoothed model by default (`DEFAULT_SMOOTHING`: yield 0.05,
+contact 0.01) and warns (`SharpGradientWarning`) when both smoothings are given as zero;
+``warnings.simplefilter("error", optimise.SharpGradientWarning)`` turns that into an error.
+`tune` refuses a stage without smoothing. docs/tuning.md shows the bias and the check.
 """
 
 from __future__ import annotations
 
+import warnings
 from typing import Any, Literal
 
 import diffrax
@@ -37,6 +49,42 @@ from ._problem import (
 )
 
 MODES = ("forward", "reverse")
+
+# the first stage of `tune`'s annealing (benchmarks/smoothing_bias.py: beam-share bias up to
+# ~0.1 K0): widths at which the partition is smooth in the design on the meshes tested
+DEFAULT_SMOOTHING = {"yield_smoothing": 0.05, "contact_smoothing": 0.01}
+
+
+class SharpGradientWarning(UserWarning):
+    """A derivative of the sharp model (no yield and no contact smoothing) was asked for."""
+
+
+def is_sharp(yield_smoothing, contact_smoothing) -> bool:
+    """True when both smoothing widths are known (concrete) to be zero; traced: False."""
+    values = (yield_smoothing, contact_smoothing)
+    if any(isinstance(v, jax.core.Tracer) for v in values):
+        return False
+    return all(not bool(jnp.any(jnp.asarray(v) != 0)) for v in values)
+
+
+SHARP_REMEDY = (
+    "give yield_smoothing=0.05, contact_smoothing=0.01 (optimise.DEFAULT_SMOOTHING), the "
+    "widths at which the partition is smooth in the design; judge the design on the sharp "
+    "model with optimise.evaluate (what optimise.tune does)"
+)
+
+
+def warn_if_sharp(yield_smoothing, contact_smoothing, stacklevel: int = 3) -> None:
+    """Warn (`SharpGradientWarning`) when a derivative of the sharp model is asked for."""
+    if is_sharp(yield_smoothing, contact_smoothing):
+        warnings.warn(
+            "a gradient of the sharp model (yield_smoothing = contact_smoothing = 0) is the "
+            "exact derivative of a discrete map that switches contact and yield hundreds of "
+            "times per collision, not a design gradient (it can be off by orders of magnitude "
+            f"and in sign against central differences); {SHARP_REMEDY}",
+            SharpGradientWarning,
+            stacklevel=stacklevel,
+        )
 
 
 @eqx.filter_jit
@@ -75,8 +123,8 @@ def gradient(
     objective,
     *,
     mode: Literal["forward", "reverse"] = "forward",
-    yield_smoothing=0.0,
-    contact_smoothing=0.0,
+    yield_smoothing=DEFAULT_SMOOTHING["yield_smoothing"],
+    contact_smoothing=DEFAULT_SMOOTHING["contact_smoothing"],
     partition_at: dict[str, Any] | None = None,
     checkpoints: int | None = None,
 ) -> tuple[Evaluation, Design]:
@@ -87,7 +135,9 @@ def gradient(
     - `objective`: a function of the partition (`Objective`, or any term).
     - `mode`: ``"forward"`` (one jvp per variable) or ``"reverse"`` (one vjp).
     - `yield_smoothing` (fraction of the yield value), `contact_smoothing` (units of R): the
-      model that is differentiated.
+      model that is differentiated (default `DEFAULT_SMOOTHING`: 0.05 and 0.01). Both zero
+      (the sharp model) warns with `SharpGradientWarning`: its derivative is not a design
+      gradient (module docstring).
     - `partition_at`: where to evaluate J and dJ/df (default: the differentiated model's
       partition). `tune` passes the sharp model's partition here, so that the value is the
       sharp model's and only df/dx comes from the smoothed one.
@@ -102,6 +152,7 @@ def gradient(
     """
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    warn_if_sharp(yield_smoothing, contact_smoothing)
     design, objective = arrays(design), arrays(objective)
     smoothing = arrays((yield_smoothing, contact_smoothing))
     if mode == "reverse":
@@ -128,7 +179,12 @@ def gradient(
 def finite_difference(
     design: Design, problem: Problem, objective, *, step=1e-3, **smoothing
 ) -> Design:
-    """Central finite differences (J(x + h) - J(x - h)) / 2h of the objective, per variable."""
+    """Central finite differences (J(x + h) - J(x - h)) / 2h of the objective, per variable.
+
+    `smoothing`: `evaluate`'s ``yield_smoothing`` and ``contact_smoothing`` (default: the sharp
+    model, whose slope over a small `step` is jagged; check `gradient` against the same
+    smoothing it differentiates, and hold ``Settings.dt`` fixed).
+    """
     leaves, treedef = jax.tree_util.tree_flatten(arrays(design))
     out = []
     for i, x in enumerate(leaves):

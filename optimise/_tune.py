@@ -20,9 +20,11 @@ Method (issue 4: "a path back to the sharp model"):
    of deformation mode) the smoothed slope can point the wrong way and the steps stall; if two
    designs seen (iterates or box corners) put the sharp share on either side of the target,
    regula falsi on the sharp model shrinks that bracket (`bracket` evaluations at most).
-6. Otherwise the target is reported ``unreachable`` if some term was met by no design seen and
-   (for a target) lies outside the range of the shares seen, box corners included, which the
-   message gives; else ``not converged`` (reachable by that evidence, not found).
+6. Otherwise the goal is reported ``unreachable`` if some term was met by no design seen and
+   (for a target) lies outside the range of the shares seen, box corners included, or if the
+   designs seen that meet one term all miss another (the terms conflict: a beam-share target
+   whose designs all put the ring above its limit); the message names the term that cannot be
+   met. Else ``not converged`` (each term met somewhere, not together, and no conflict seen).
 
 Robust tuning: a `Problem` with `Conditions` (samples of v0 and g) makes every step above work
 on the *expected* partition over the samples (vmapped, one program); the result then also holds
@@ -45,7 +47,7 @@ import msfd_jax as m
 
 from ._conditions import spread
 from ._design import Box, Design, as_arrays, default_box, project
-from ._gradient import gradient
+from ._gradient import SHARP_REMEDY, gradient, is_sharp
 from ._objective import STRUCTURES, Objective, TargetShare, share
 from ._problem import Problem, arrays, check, evaluate
 
@@ -185,7 +187,9 @@ def tune(
     - `problem`: the collision around it (`make_problem`, with the same `box`).
     - `objective`: the terms to meet (`objective(TargetShare(...), ShareAtMost(...))`).
     - `box`: bounds of the design (default `default_box(design)`).
-    - `stages`: the annealing schedule (`Stage`s); `mode`: ``"forward"`` or ``"reverse"``.
+    - `stages`: the annealing schedule (`Stage`s); `mode`: ``"forward"`` or ``"reverse"``. A
+      stage with both smoothings zero and a learning rate is refused (`ValueError`): the sharp
+      model's derivative is not a design gradient (`optimise.gradient`).
     - `tolerance`: how close (K0) the sharp partition must come to every term.
     - `sharp_correction`: take J and dJ/df from the sharp model (module docstring, step 2).
     - `progress`: called with one line per iteration (e.g. `print`); None (default): quiet.
@@ -199,6 +203,7 @@ def tune(
     With `Conditions` in `problem` (robust tuning) the objective is met by the expected sharp
     partition over the samples; `TuneResult.samples` and `.spread` say how each sample fares.
     """
+    _check_stages(stages)
     start = time.perf_counter()
     box = default_box(design) if box is None else box
     objective = arrays(objective)
@@ -240,7 +245,21 @@ def tune(
         run.seen.append((corner, _floats(evaluation.fractions)))
     if bracket and _bracket(run, problem, objective, bracket):
         return _finish(run, problem, box, "converged", start)
-    return _finish(run, problem, box, "not converged" if run.reachable() else "unreachable", start)
+    reachable = run.reachable() and run.conflict() is None
+    return _finish(run, problem, box, "not converged" if reachable else "unreachable", start)
+
+
+def _check_stages(stages: tuple[Stage, ...]) -> None:
+    """Refuse a stage that would take gradient steps on the sharp model's derivative."""
+    if not stages:
+        raise ValueError("stages must hold at least one Stage")
+    for i, stage in enumerate(stages):
+        if stage.learning_rate and is_sharp(stage.yield_smoothing, stage.contact_smoothing):
+            raise ValueError(
+                f"stages[{i}] has yield_smoothing = contact_smoothing = 0 and a learning rate: "
+                "the sharp model's derivative is not a design gradient (optimise.gradient); "
+                f"{SHARP_REMEDY}; tune already judges every design on the sharp model"
+            )
 
 
 def _bracket(run: _Run, problem: Problem, objective: Objective, budget: int) -> bool:
@@ -303,19 +322,42 @@ class _Run:
         self.seen: list[tuple[Design, dict[str, float]]] = []  # sharp partitions, corners too
         self.bracketed = 0  # evaluations spent by the bracketing safeguard
 
-    def reachable(self) -> bool:
-        """Whether every term was met by some design seen, or (a target) lies between two."""
+    def unmet(self) -> list[int]:
+        """Terms met by no design seen that (a target) do not lie between two shares seen."""
+        out = []
         for i, term in enumerate(self.objective.terms):
-            if any(met[i] for met in self.terms_met):
-                continue
             if any(float(term.violation(f)) <= self.tolerance for _, f in self.seen):
                 continue
             if isinstance(term, TargetShare):
                 shares = [float(share(f, term.structure)) for _, f in self.seen]
                 if min(shares) <= float(term.target) <= max(shares):
                     continue
-            return False
-        return True
+            out.append(i)
+        return out
+
+    def reachable(self) -> bool:
+        """Whether every term was met by some design seen, or (a target) lies between two."""
+        return not self.unmet()
+
+    def conflict(self) -> tuple[int, int, list[float], list[dict[str, float]]] | None:
+        """Two terms the sharp model never meets together, by the designs seen.
+
+        (i, j, [min, max] of term j's share, designs) when some designs seen meet term i and
+        none of them meets term j: where i holds, j fails (the combined goal is infeasible by
+        that evidence, e.g. a beam-share target whose designs all put the ring above its
+        limit). None when no such pair was seen.
+        """
+        terms, tolerance = self.objective.terms, self.tolerance
+        for i, held in enumerate(terms):
+            meeting = [(d, f) for d, f in self.seen if float(held.violation(f)) <= tolerance]
+            if not meeting:
+                continue
+            for j, other in enumerate(terms):
+                if j == i or any(float(other.violation(f)) <= tolerance for _, f in meeting):
+                    continue
+                shares = [float(share(f, other.structure)) for _, f in meeting]
+                return i, j, [min(shares), max(shares)], [d.as_floats() for d, _ in meeting]
+        return None
 
     def record(self, point: Design, sharp, stage: Stage):
         check(sharp, point, self.conditions)
@@ -331,6 +373,23 @@ class _Run:
         if self.progress is not None:
             self.progress(progress_line(len(self.history), stage, point, value, violation))
         return sharp
+
+
+def _why(run: _Run) -> str:
+    """Which term cannot be met, by the sharp partitions of the designs seen."""
+    terms = run.objective.terms
+    unmet = run.unmet()
+    if unmet:
+        names = "; ".join(terms[i].describe() for i in unmet)
+        return f"no design seen meets {names}"
+    i, j, (low, high), designs = run.conflict()
+    where = ", ".join(f"{k} in [{min(d[k] for d in designs):.4f}, {max(d[k] for d in designs):.4f}]"
+                      for k in designs[0])  # fmt: skip
+    return (
+        f"{terms[j].describe()} cannot be met together with {terms[i].describe()}: at the "
+        f"{len(designs)} designs seen that meet the latter ({where}), the sharp model's "
+        f"{terms[j].structure} share is in [{low:.4f}, {high:.4f}]"
+    )
 
 
 def _finish(run: _Run, problem: Problem, box: Box, status: str, start: float) -> TuneResult:
@@ -349,17 +408,24 @@ def _finish(run: _Run, problem: Problem, box: Box, status: str, start: float) ->
         if run.bracketed:
             message += f" (after {run.bracketed} bracketing steps on the sharp model)"
     elif status == "unreachable":
-        message = (
-            f"unreachable within the bounds: {objective.describe()}; the best design seen "
-            f"({variables}) misses by {violation:.4f} K0 (tolerance {tolerance:g}); at the "
-            f"corners of the box the sharp model gives {ranges}"
+        message = f"unreachable within the bounds: {objective.describe()}; " + _why(run)
+        message += (
+            f"; the best design seen ({variables}) misses by {violation:.4f} K0 (tolerance "
+            f"{tolerance:g}); at the corners of the box the sharp model gives {ranges}"
         )
     else:
+        several = len(objective.terms) > 1
         message = (
             f"not converged: {objective.describe()} missed by {violation:.4f} K0 at {variables} "
-            f"after {len(run.history)} evaluations, although the shares seen ({ranges} at the "
-            "corners) suggest it is reachable (the sharp share may jump past it); try another "
-            "start or more iterations per stage"
+            f"after {len(run.history)} evaluations; "
+            + (
+                "each term was met (or a target bracketed) by some design seen, but no design "
+                "seen met them together, and none seen shows that they conflict"
+                if several
+                else "the shares seen bracket the target, so it looks reachable (the sharp "
+                "share may jump past it)"
+            )
+            + f" (at the corners: {ranges}); try another start or more iterations per stage"
         )
     robust = {}
     conditions = problem.conditions

@@ -9,7 +9,10 @@ design-dependent dt would add its own O(dt^2) variation to f(x + h) - f(x - h).
 """
 
 import dataclasses
+import inspect
 import json
+import types
+import warnings
 
 import jax.numpy as jnp
 import numpy as np
@@ -26,6 +29,15 @@ SMOOTH = dict(yield_smoothing=0.05, contact_smoothing=0.01)
 GOAL = o.objective(o.TargetShare("beam", 0.6), o.ShareAtMost("ring", 0.3, weight=2.0))
 # two impact conditions, paired: a slow light block and a fast heavy one
 SAMPLES = dict(velocity=[0.7, 1.0], mass_ratio=[5.0, 20.0])
+
+
+def strict_json(text: str):
+    """json.loads that refuses NaN and Infinity (strict parsers do: RFC 8259)."""
+
+    def refuse(constant):
+        raise ValueError(f"not JSON: {constant}")
+
+    return json.loads(text, parse_constant=refuse)
 
 
 @pytest.fixture(scope="module")
@@ -114,8 +126,9 @@ def test_cli_tune_json(problem, capsys):
     args += ["--ring-segments", "6", "--beam-contact-segments", "8", "--beam-outer-segments", "2"]
     args += ["--t-max", "1.5", "--dt", repr(DT), "--history-points", "31", "--shape-times", "0.5"]
     code = cli.main([*args, "--no-cache"])
-    record = json.loads(capsys.readouterr().out)
+    record = strict_json(capsys.readouterr().out)
     assert code == 0 and record["status"] == "converged"
+    assert "si" not in record  # non-dimensional inputs: no SI thickness
     assert {"thickness_ratio", "fractions", "iterations", "objective_history"} <= set(record)
     assert len(record["objective_history"]) == record["iterations"]
     beam = record["fractions"]["beam_bending"] + record["fractions"]["beam_axial"]
@@ -218,7 +231,7 @@ def test_cli_robust_tune_json(robust_problem, capsys):
     args += ["--ring-segments", "6", "--beam-contact-segments", "8", "--beam-outer-segments", "2"]
     args += ["--t-max", "1.5", "--dt", repr(DT), "--history-points", "31", "--shape-times", "0.5"]
     code = cli.main([*args, "--no-cache"])
-    record = json.loads(capsys.readouterr().out)
+    record = strict_json(capsys.readouterr().out)
     assert code == 0 and record["status"] == "converged" and record["expected"]
     beams = [
         s["fractions"]["beam_bending"] + s["fractions"]["beam_axial"] for s in record["samples"]
@@ -229,3 +242,85 @@ def test_cli_robust_tune_json(robust_problem, capsys):
     bad = ["tune", "--target-beam-share", "0.35", "--velocity-samples", "0.7", "1.0"]
     bad += ["--mass-samples", "5", "--pair-samples", "--no-cache"]
     assert cli.main(bad) == cli.EXIT_USAGE  # unequal paired counts
+
+
+def test_gradient_of_the_sharp_model_warns(problem):
+    # the defaults differentiate the smoothed model (docs/tuning.md: the sharp model's
+    # derivative is off by orders of magnitude against its own central differences)
+    defaults = inspect.signature(o.gradient).parameters
+    assert defaults["yield_smoothing"].default == o.DEFAULT_SMOOTHING["yield_smoothing"] > 0
+    assert defaults["contact_smoothing"].default == o.DEFAULT_SMOOTHING["contact_smoothing"] > 0
+    design = o.Design(thickness_ratio=2.0)
+    with warnings.catch_warnings():  # as an error: raised before any solve
+        warnings.simplefilter("error", o.SharpGradientWarning)
+        with pytest.raises(o.SharpGradientWarning, match="yield_smoothing=0.05"):
+            o.gradient(design, problem, GOAL, yield_smoothing=0.0, contact_smoothing=0.0)
+        with pytest.raises(o.SharpGradientWarning, match="not a design gradient"):
+            o.gradient(
+                design, problem, GOAL, mode="reverse", yield_smoothing=0, contact_smoothing=0
+            )
+    # tune refuses a stage that would step on the sharp derivative, before compiling anything
+    with pytest.raises(ValueError, match=r"stages\[1\].*contact_smoothing=0.01"):
+        o.tune(design, problem, GOAL, stages=(o.Stage(0.05, 0.01, 1, 0.1), o.Stage(0, 0, 1, 0.1)))
+
+
+def test_conflicting_terms_are_named():
+    # the sharp partitions a tuning run saw: wherever the beam share meets 0.6, the ring
+    # share is about 0.35 (the coarse mesh's README goal, docs/tuning.md): infeasible together
+    from optimise._tune import _Run, _why
+
+    goal = o.objective(o.TargetShare("beam", 0.6), o.ShareAtMost("ring", 0.3))
+    run = _Run(goal, 0.01, None, types.SimpleNamespace(conditions=None))
+    seen = [(0.5, 0.86, 0.12), (1.1, 0.605, 0.35), (1.12, 0.597, 0.36), (5.0, 0.08, 0.9)]
+    for h, beam, ring in seen:
+        fractions = {"beam_bending": beam, "beam_axial": 0.0}
+        fractions |= {"ring_bending": ring, "ring_axial": 0.0}
+        run.seen.append((o.Design(thickness_ratio=h), fractions))
+    assert run.reachable()  # each term alone is met somewhere...
+    i, j, (low, high), designs = run.conflict()  # ...but not together
+    assert (i, j) == (0, 1) and (low, high) == (0.35, 0.36) and len(designs) == 2
+    why = _why(run)
+    assert why.startswith("ring share <= 0.3 cannot be met together with beam share = 0.6")
+    assert "ring share is in [0.3500, 0.3600]" in why and "reachable" not in why
+    run.seen[1] = (run.seen[1][0], {**run.seen[1][1], "ring_bending": 0.29})
+    assert run.conflict() is None  # a design meeting both: no conflict
+
+
+def test_docs_converging_tune_example_converges():
+    # docs/tuning.md's converging example, as written there: coarse mesh, default settings
+    mesh = m.Mesh(ring_segments=8, beam_contact_segments=10, beam_outer_segments=3)
+    design = o.Design(thickness_ratio=2.5)
+    problem = o.make_problem(
+        m.CollisionParams(), mesh, m.Settings(t_max=4.0), o.default_box(design)
+    )
+    goal = o.objective(o.TargetShare("beam", 0.45), o.ShareAtMost("ring", 0.55))
+    result = o.tune(design, problem, goal, tolerance=0.01)
+    assert result.status == "converged", result.message
+    check = o.evaluate(result.design, problem, goal)  # the sharp model, independently
+    assert abs(float(o.share(check.fractions, "beam")) - 0.45) <= 0.01
+    assert float(o.share(check.fractions, "ring")) <= 0.55 + 0.01
+
+
+def test_cli_tune_si_reports_the_beam_thickness_in_mm(capsys):
+    args = ["tune", "--si", "--impact-speed", "20", "--block-mass", "200", "--json", "--quiet"]
+    args += ["--target-beam-share", "0.5", "--iterations", "1", "--no-cache"]
+    args += ["--ring-segments", "6", "--beam-contact-segments", "8", "--beam-outer-segments", "2"]
+    args += ["--t-max", "1.5", "--dt", repr(DT), "--history-points", "31", "--shape-times", "0.5"]
+    code = cli.main(args)
+    record = strict_json(capsys.readouterr().out)
+    assert code in (cli.EXIT_OK, 4), record["message"]
+    si = record["si"]
+    ring_mm = 1e3 * m.PAPER_SI["ring_thickness"]  # the paper's h_r = 50 mm, not overridden
+    assert si["ring_thickness_mm"] == pytest.approx(ring_mm, rel=1e-12)
+    assert si["thickness_ratio"] == record["thickness_ratio"]
+    assert si["beam_thickness_mm"] == pytest.approx(record["thickness_ratio"] * ring_mm, rel=1e-12)
+    assert si["beam_thickness_bounds_mm"] == pytest.approx([0.5 * ring_mm, 5.0 * ring_mm])
+    # the text report says the same in mm
+    from optimise._cli import report
+    from optimise._tune import TuneResult
+
+    fields = {f.name for f in dataclasses.fields(TuneResult)}
+    result = TuneResult(**{k: v for k, v in record.items() if k in fields and k != "design"},
+                        design=o.Design(thickness_ratio=record["thickness_ratio"]))  # fmt: skip
+    text = report(result, si)
+    assert f"beam thickness h_b = {si['beam_thickness_mm']:.2f} mm" in text
