@@ -185,3 +185,42 @@ def test_fig16_onset_text_never_says_nan():
     assert _onset_text(float("nan"), 0.4).startswith("non-zero at every v0 swept")
     assert _onset_text(0.3, 0.4) == "zero for v0 <= 0.3, non-zero from v0 = 0.4"
     assert "nan" not in _onset_text(float("nan"), float("nan"))
+
+
+def test_fig23_with_one_run_below_k0_4_is_not_judged():
+    """One run below K0 = 4 cannot show a rise there: not comparable, not a disagreement."""
+    from msfd_jax.studies.reproduce.mass_velocity import judge_fig23_24
+
+    ring = np.array([0.13, 0.22, 0.2, 0.1])
+    one_below = {"k0": np.array([3.89, 8.33, 14.8, 23.1]), "ring": ring}
+    two_below = {"k0": np.array([1.2, 3.89, 12.3, 24.1]), "ring": ring}
+    findings = judge_fig23_24({"mass": two_below, "velocity": one_below})
+    fig23 = [f.agree for f in findings if f.figure == "Fig. 23"]
+    assert fig23 == [True, None]
+
+
+def test_fig16_quick_run_does_not_judge_the_step_bound_mass_spread():
+    from msfd_jax.studies.reproduce import contact
+
+    velocity = np.array([0.5, 0.82, 1.6, 2.0, 0.82, 1.6])
+    mass = np.array([10.0, 10.0, 10.0, 10.0, 20.0, 20.0])
+    absolute = np.array([0.01, 0.02, 0.089, 0.18, 0.02, 0.099])  # 10 % spread at v0 = 1.6
+    numbers = {
+        "k0": np.ones(6),
+        "velocity": velocity,
+        "mass_ratio": mass,
+        "contact": absolute,
+        "contact_absolute": absolute,
+        "series": {
+            "velocity (g = 10)": np.arange(4),
+            "mass (v0 = 0.82)": np.array([1, 4]),
+            "mass (v0 = 1.6)": np.array([2, 5]),
+        },
+        "onset_velocity": [float("nan"), 0.5],
+        "two_mass": {"peak": 100.0, "f_y": 50.0, "onset_velocity": 0.4},
+    }
+    full = contact.judge_fig16({**numbers, "quick": False})
+    quick = contact.judge_fig16({**numbers, "quick": True})
+    assert full[1].agree is False and quick[1].agree is None
+    assert "step" in quick[1].reason
+    assert all("nan" not in f.ours for f in quick)

@@ -300,8 +300,10 @@ def reproduce_fig15(quick: bool, figures_dir: Path) -> Reproduction:
 
 def h1_series(quick: bool) -> dict[str, list[dict]]:
     """h_b/h_r = 1, constrained: velocity at g = 10, mass at v0 = 0.82 and at v0 = 1.6."""
-    if quick:
-        velocity, mass_paper, mass_fast = (0.82, 1.2, 1.6, 2.0), (2.0, 20.0), (5.0, 20.0)
+    if quick:  # eight rows (one chunk) that still span what the findings judge: two runs
+        # below K0 = 4 and two above in each series of Fig. 23, Fig. 24's high energy (the
+        # mass series to g = 70, K0 = 24, as the full run), the mass series at v0 = 1.6
+        velocity, mass_paper, mass_fast = (0.5, 0.82, 1.6, 2.0), (2.0, 35.0, 70.0), (20.0,)
     else:
         velocity = (0.3, 0.5, 0.82, 1.0, 1.2, 1.4, 1.6, 1.8, 2.0)
         mass_paper = (0.5, 2.0, 5.0, 20.0, 35.0, 50.0, 70.0)
@@ -367,6 +369,7 @@ def compute_fig16(quick: bool) -> dict:
         contact_absolute=absolute,
         status=table["status"],
         onset_velocity=onset_velocity(table["velocity"][v], absolute[v]),
+        quick=quick,
         series=series,
         two_mass=two_mass_first_impact(H1_BASE | {"mass_ratio": 10.0, "velocity": 0.82}, quick),
     )
@@ -389,6 +392,15 @@ def table_fig16(numbers: dict) -> str:
                 )
             )
     return b.table(["series", "g", "v0", "K0", "contact (M_pr)", "contact / K0", "status"], rows_md)
+
+
+# Why the quick run cannot judge the mass independence of the contact dissipation at v0 = 1.6.
+QUICK_STEP_NOTE = (
+    "not comparable on the quick run's coarse mesh: there the contact dissipation at v0 = 1.6 "
+    "converges in the step only at a quarter of the default one (g = 5 / 20: 0.0893 / 0.0979 "
+    "M_pr at safety 0.35, 0.0891 / 0.0888 at 0.0875; tests/test_reproduction.py), so the "
+    "quick run's spread is step error; the full run checks it"
+)
 
 
 def judge_fig16(numbers: dict) -> list[Finding]:
@@ -422,8 +434,10 @@ def judge_fig16(numbers: dict) -> list[Finding]:
             f"v0 = 1.6: {absolute[fast].min():.4f}-{absolute[fast].max():.4f} M_pr for g "
             f"from {table['mass_ratio'][fast].min():g} to {table['mass_ratio'][fast].max():g} "
             f"(spread {100 * spread:.1f} % of the mean)",
-            bool(spread < 0.05),
-            "the collision stage is local: the block is far from the contact and cannot "
+            None if numbers.get("quick") else bool(spread < 0.05),
+            QUICK_STEP_NOTE
+            if numbers.get("quick")
+            else "the collision stage is local: the block is far from the contact and cannot "
             "change the velocity there in time (Sect. 4.3.2)",
         ),
         Finding(
