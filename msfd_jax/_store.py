@@ -81,6 +81,7 @@ class _Store:
         if not self.meta_path.exists():
             return
         old = json.loads(self.meta_path.read_text())
+        meta = json.loads(dumps(meta))  # as written: tuples as lists, NaN as null
         differ = sorted(k for k in {*old, *meta} if old.get(k) != meta.get(k))
         if differ:
             raise ValueError(
