@@ -429,7 +429,7 @@ def judge_fig16(numbers: dict) -> list[Finding]:
         Finding(
             "Fig. 16",
             "at fixed v0 the contact dissipation does not change with the attached mass",
-            f"v0 = 0.82: {absolute[slow].max():.4f} M_pr for every g from "
+            f"v0 = 0.82: {absolute[slow].min():.4f}-{absolute[slow].max():.4f} M_pr for g from "
             f"{table['mass_ratio'][slow].min():g} to {table['mass_ratio'][slow].max():g}; "
             f"v0 = 1.6: {absolute[fast].min():.4f}-{absolute[fast].max():.4f} M_pr for g "
             f"from {table['mass_ratio'][fast].min():g} to {table['mass_ratio'][fast].max():g} "
