@@ -458,8 +458,10 @@ def run_si(
 
     The result has `Collision.si`, the design quantities of the whole structure in SI.
     """
-    from ._params import PAPER_SI, from_si
+    from ._params import PAPER_SI, from_si, si_impact_speed
 
+    if "velocity" in si:  # the former SI name of the impact speed
+        si["impact_speed"] = si_impact_speed(si.get("impact_speed"), si.pop("velocity"))
     unknown = sorted(set(si) - set(PAPER_SI) - {"beam_width", "axial_constraint"})
     if unknown:
         allowed = ", ".join(sorted({*PAPER_SI, "beam_width", "axial_constraint"}))

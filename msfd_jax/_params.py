@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from typing import Any
 
 import equinox as eqx
@@ -281,6 +282,24 @@ class Scales:
     force: float  # M_pr / R [N]
 
 
+def si_impact_speed(impact_speed=None, velocity=None):
+    """The SI impact speed from `impact_speed`, or from its former name `velocity` (with a
+    DeprecationWarning); refuses both at once or neither."""
+    if velocity is not None:
+        if impact_speed is not None:
+            raise TypeError("give impact_speed [m/s] only (velocity is its former SI name)")
+        warnings.warn(
+            "the SI input 'velocity' is now 'impact_speed' (m/s), as --impact-speed on the "
+            "command line and in case files; 'velocity' will be removed",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+        return velocity
+    if impact_speed is None:
+        raise TypeError("from_si() needs impact_speed (V0 [m/s])")
+    return impact_speed
+
+
 def from_si(
     *,
     youngs_modulus: float,
@@ -291,15 +310,19 @@ def from_si(
     ring_thickness: float,
     beam_thickness: float,
     beam_half_span: float,
-    velocity: float,
+    impact_speed: float | None = None,
     block_mass: float,
     beam_width: float | None = None,
     axial_constraint: bool = True,
+    velocity: float | None = None,
 ) -> tuple[CollisionParams, Scales]:
     """Convert SI inputs (Pa, kg/m^3, m, m/s, kg) into `CollisionParams` and unit scales.
 
-    `block_mass` is the whole rigid block 2G; `beam_half_span` is L_b (the span is 2 L_b).
+    `block_mass` is the whole rigid block 2G; `beam_half_span` is L_b (the span is 2 L_b);
+    `impact_speed` is V0 [m/s] (`velocity` is its former SI name, accepted with a
+    DeprecationWarning: `CollisionParams.velocity` is the non-dimensional v0).
     """
+    impact_speed = si_impact_speed(impact_speed, velocity)
     si = dict(
         youngs_modulus=youngs_modulus,
         yield_stress=yield_stress,
@@ -309,7 +332,7 @@ def from_si(
         ring_thickness=ring_thickness,
         beam_thickness=beam_thickness,
         beam_half_span=beam_half_span,
-        velocity=velocity,
+        impact_speed=impact_speed,
     )
     for name, value in si.items():
         _check_value(name, value, 0.0, math.inf, False, False)
@@ -330,7 +353,7 @@ def from_si(
             modulus_ratio=f(youngs_modulus) / f(yield_stress),
             slenderness=f(radius) / f(ring_thickness),
             mass_ratio=0.5 * f(block_mass) / (mu_r * f(radius)),
-            velocity=f(velocity) * t_scale / f(radius),
+            velocity=f(impact_speed) * t_scale / f(radius),
             span_ratio=f(beam_half_span) / f(radius),
             width_ratio=f(b_b) / f(width),
         )
@@ -357,7 +380,7 @@ PAPER_SI = dict(
     ring_thickness=0.05,
     beam_thickness=0.125,
     beam_half_span=1.5,
-    velocity=30.0,
+    impact_speed=30.0,
     block_mass=2 * 10 * 2680.0 * 0.05 * 0.05 * 0.5,
 )
 """The paper's base case in SI (R/b = R/h_r = 10, L_b = 3R, g = 10, h_b/h_r = 2.5; R = 0.5 m)."""

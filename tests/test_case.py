@@ -72,7 +72,7 @@ def test_a_case_file_sets_every_section_and_the_line_overrides(tmp_path):
     si = tmp_path / "si.toml"
     si.write_text("[collision]\nimpact_speed = 27.8\nblock_mass = 1500\n")
     args = _parse("run", str(si))
-    assert args.si_velocity == 27.8 and args.si_block_mass == 1500.0
+    assert args.si_impact_speed == 27.8 and args.si_block_mass == 1500.0
 
 
 @pytest.mark.parametrize(

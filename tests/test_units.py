@@ -52,7 +52,7 @@ SECOND_SI = dict(
     ring_thickness=0.04,
     beam_thickness=0.07,
     beam_half_span=2.2,
-    velocity=12.0,
+    impact_speed=12.0,
     block_mass=150.0,
     beam_width=0.045,
 )
@@ -85,7 +85,7 @@ def hand_model(si: dict, mesh: m.Mesh) -> dict:
     E, Y, rho = si["youngs_modulus"], si["yield_stress"], si["density"]
     R, b_r, h_r = si["radius"], si["width"], si["ring_thickness"]
     h_b, L_b = si["beam_thickness"], si["beam_half_span"]
-    V0, block = si["velocity"], si["block_mass"]
+    V0, block = si["impact_speed"], si["block_mass"]
     b_b = si.get("beam_width", b_r)
     constrained = si.get("axial_constraint", True)
     n_r, n_c, n_o = mesh.ring_segments, mesh.beam_contact_segments, mesh.beam_outer_segments

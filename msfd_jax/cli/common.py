@@ -51,13 +51,13 @@ SI = {
     "ring_thickness": ("--ring-thickness", "h_r [m]"),
     "beam_thickness": ("--beam-thickness", "h_b [m]"),
     "beam_half_span": ("--beam-half-span", "L_b, half the beam span [m]"),
-    "velocity": ("--impact-speed", "V0 [m/s]"),
+    "impact_speed": ("--impact-speed", "V0 [m/s]"),
     "block_mass": ("--block-mass", "2G, the whole rigid block [kg]"),
     "beam_width": ("--beam-width", "b_b [m]"),  # its default (the ring width) is added where used
 }
 OPTION_NAMES = {
     **{k: v[0] for k, v in PARAMS.items()},
-    **{k: v[0] for k, v in SI.items() if k != "velocity"},
+    **{k: v[0] for k, v in SI.items()},
     "ring_segments": "--ring-segments",
     "beam_contact_segments": "--beam-contact-segments",
     "beam_outer_segments": "--beam-outer-segments",
@@ -308,7 +308,7 @@ SI_SOURCES = {
     "modulus_ratio": ("youngs_modulus", "yield_stress"),
     "slenderness": ("radius", "ring_thickness"),
     "mass_ratio": ("block_mass", "density", "width", "ring_thickness", "radius"),
-    "velocity": ("velocity", "density", "yield_stress", "ring_thickness", "radius"),
+    "velocity": ("impact_speed", "density", "yield_stress", "ring_thickness", "radius"),
     "span_ratio": ("beam_half_span", "radius"),
     "width_ratio": ("beam_width", "width"),
 }
