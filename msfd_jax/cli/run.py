@@ -237,6 +237,7 @@ def handle(args: argparse.Namespace) -> int:
                 "failed_at": {
                     "tau": record["t_end"],
                     "steps": record["steps"],
+                    "seconds": record["wall_time_s"],  # the run's wall time before it stopped
                     **({"t_s": record["t_end"] * scales.time} if scales is not None else {}),
                 },
             }
