@@ -381,7 +381,7 @@ def _why(run: _Run) -> str:
     unmet = run.unmet()
     if unmet:
         names = "; ".join(terms[i].describe() for i in unmet)
-        return f"no design seen meets {names}"
+        return f"no design seen meets {names}, nor do the shares seen bracket it"
     i, j, (low, high), designs = run.conflict()
     where = ", ".join(f"{k} in [{min(d[k] for d in designs):.4f}, {max(d[k] for d in designs):.4f}]"
                       for k in designs[0])  # fmt: skip
