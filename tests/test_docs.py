@@ -367,6 +367,18 @@ def test_commands_are_labelled(doc: Path):
     )
 
 
+LINK = re.compile(r"\]\(([^()\s]+)\)")  # [text](target) and ![alt](target)
+
+
+@pytest.mark.parametrize("doc", documents(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_links_resolve(doc: Path):
+    """Every relative link names a file or folder that exists (files move: stale names)."""
+    targets = {t.split("#")[0] for t in LINK.findall(doc.read_text(encoding="utf-8"))}
+    local = [t for t in targets if t and not re.match(r"^[a-z]+:", t)]
+    missing = sorted(t for t in local if not (doc.parent / t).exists())
+    assert not missing, f"{doc.name}: links to missing files:\n" + "\n".join(missing)
+
+
 def test_every_skip_says_why():
     """Collection already refused empty reasons; the skipped blocks are listed here."""
     skipped = [b for b in BLOCKS if b.skip is not None]
