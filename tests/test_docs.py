@@ -57,6 +57,9 @@ SHOWN = {"", "text", "toml"}  # fences shown and not run
 # A plain or text fence starting with one of these shows a command, which must be run.
 COMMAND = re.compile(r"^(\$ )?(msfd|python3?|pytest|pip|taskset|PYTHONPATH=\S*|ruff|bash)\b")
 
+# Never run: an install would replace the package under test (a block with one must be skipped).
+INSTALL = re.compile(r"^\s*(\$ )?(.*&&\s*)?(python3? -m )?pip3? install\b")
+
 FENCE = re.compile(r"^(?P<indent>[ \t]*)(?P<fence>`{3,}|~{3,})[ \t]*(?P<lang>[^\s`]*)[^`]*$")
 MARKER = re.compile(r"^\s*<!--\s*doc-test:(?P<body>.*?)-->\s*$")
 SKIP = re.compile(r"^\s*skip\b(?P<reason>.*)$", re.DOTALL)
@@ -324,6 +327,11 @@ def written_json(cwd: Path, before: dict[Path, float]) -> list[Path]:
 def test_block(block: Block, doc_dirs, cache_dir):
     if block.skip is not None:
         pytest.skip(f"the doc says: {block.skip}")
+    installs = [line for line in block.code.splitlines() if INSTALL.match(line)]
+    assert not installs, (
+        f"{block.id} installs packages ({installs[0].strip()!r}), which would change this "
+        "environment: mark the block <!-- doc-test: skip REASON --> (CI runs the install)"
+    )
     cwd = doc_dirs[block.doc]
     before = {p: p.stat().st_mtime_ns for p in cwd.rglob("*.json")}
     result = execute(block, cwd, cache_dir)
