@@ -26,11 +26,13 @@ default 1001 samples over the cap resolve 10 ms by ~70 samples in the paper's SI
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from ._params import Scales
+from ._params import PAPER_SI, Scales, from_si
 
 STANDARD_GRAVITY = 9.80665  # m/s^2
 DISSIPATION_KEYS = ("beam_bending", "beam_axial", "ring_bending", "ring_axial", "contact")
@@ -157,3 +159,113 @@ def table_lines(si: dict[str, Any]) -> list[str]:
         f"time T {1e3 * s['time_s']:.4g} ms, force M_pr/R {s['force_N']:.4g} N"
     )
     return lines
+
+
+# ---- sweeps in SI: inputs in SI units, the design quantities as columns ----
+
+SI_INPUTS = (*PAPER_SI, "beam_width")  # `from_si`'s keywords, as `run_si` takes them
+SI_UNITS = {"_J": "J", "_N": "N", "_m": "m", "_s": "s", "_m_s2": "m/s^2", "_g": "g"}
+INPUT_UNITS = {
+    "youngs_modulus": "Pa",
+    "yield_stress": "Pa",
+    "density": "kg/m^3",
+    "radius": "m",
+    "width": "m",
+    "ring_thickness": "m",
+    "beam_thickness": "m",
+    "beam_half_span": "m",
+    "impact_speed": "m/s",
+    "block_mass": "kg",
+    "beam_width": "m",
+}
+
+
+def units_of(column: str) -> str | None:
+    """The SI unit of a sweep column (NetCDF's ``units`` attribute), None if non-dimensional."""
+    if column.startswith("si_"):
+        return INPUT_UNITS.get(column[3:])
+    if column.startswith("scale_"):
+        return {"moment": "J", "length": "m", "time": "s", "force": "N"}.get(column[6:])
+    for suffix in sorted(SI_UNITS, key=len, reverse=True):
+        if column.endswith(suffix):
+            return SI_UNITS[suffix]
+    return None
+
+
+def si_sweep(grid_or_list) -> tuple[list[dict], list[dict], dict | None] | None:
+    """A sweep given in SI (`SI_INPUTS` keys, missing ones `PAPER_SI`'s) as a list of
+    collisions in groups, each row's SI inputs and scales, and the SI grid's axes (a dict of
+    value lists: its Cartesian product, last key fastest); None for a sweep given in groups.
+    Mixing SI inputs and groups (other than ``axial_constraint``) is refused."""
+    rows = [grid_or_list] if isinstance(grid_or_list, Mapping) else list(grid_or_list)
+    keys = {k for row in rows if isinstance(row, Mapping) for k in row}
+    if "velocity" in keys and keys & set(SI_INPUTS):
+        raise ValueError(
+            "velocity is the non-dimensional v0; give the SI speed as impact_speed [m/s]"
+        )
+    if not keys & set(SI_INPUTS):
+        return None
+    groups = sorted(keys - set(SI_INPUTS) - {"axial_constraint"})
+    if groups:
+        raise ValueError(
+            f"{groups} cannot be combined with SI inputs in one sweep; give SI values only "
+            f"(allowed: {', '.join(SI_INPUTS)}, axial_constraint)"
+        )
+    if isinstance(grid_or_list, Mapping):
+        axes = {k: list(np.atleast_1d(np.asarray(v, dtype=object))) for k, v in rows[0].items()}
+        points = [dict(zip(axes, p, strict=True)) for p in itertools.product(*axes.values())]
+        grid = {_column(k): np.asarray(v, float) for k, v in axes.items()}
+    else:
+        points, grid = rows, None
+    collisions, info = [], []
+    for point in points:
+        inputs = {**PAPER_SI, **point}
+        params, scales = from_si(
+            **{k: v for k, v in inputs.items() if k != "axial_constraint"},
+            axial_constraint=bool(inputs.get("axial_constraint", True)),
+        )
+        collisions.append({k: float(np.asarray(v)) for k, v in vars(params).items()})
+        info.append({"inputs": inputs, "scales": scales})
+    return collisions, info, grid
+
+
+def _column(key: str) -> str:
+    return "axial_constraint" if key == "axial_constraint" else f"si_{key}"
+
+
+def si_columns(columns: dict[str, np.ndarray], info: list[dict]) -> dict[str, np.ndarray]:
+    """The SI columns of a sweep's table (whole structure, as `design_quantities`): the SI
+    inputs (``si_*``), the scales (``scale_*``), energies in J, the engine's peaks in SI and
+    the duration. The 10 ms deceleration and the final positions need a run's histories and
+    final state: `run_si` gives them."""
+    out = {}
+    for name in SI_INPUTS:
+        values = [row["inputs"].get(name) for row in info]
+        if any(v is not None for v in values):
+            out[f"si_{name}"] = np.asarray([np.nan if v is None else v for v in values], float)
+    scale = {k: np.asarray([vars(r["scales"])[k] for r in info]) for k in vars(info[0]["scales"])}
+    for key in ("moment", "length", "time", "force"):
+        out[f"scale_{key}"] = scale[key]
+    energy = WHOLE * columns["k0"] * scale["moment"]
+    out["k0_J"] = energy
+    for key in (*DISSIPATION_KEYS, *LEFT_KEYS):
+        out[f"{key}_J"] = columns[key] * energy
+    out["dissipated_total_J"] = sum(columns[k] for k in DISSIPATION_KEYS) * energy
+    out["energy_left_J"] = sum(columns[k] for k in LEFT_KEYS) * energy
+    length, force, time = scale["length"], scale["force"], scale["time"]
+    if "peak_deflection" in columns:
+        out["peak_beam_deflection_m"] = columns["peak_deflection"] * length
+        out["peak_ring_crush_m"] = columns["peak_ring_crush"] * length
+        out["peak_block_travel_m"] = columns["peak_block_travel"] * length
+        out["peak_contact_force_N"] = WHOLE * columns["peak_contact_force"] * force
+        closed = columns["contact_time"]
+        mean = np.divide(
+            columns["contact_impulse"], closed, out=np.zeros_like(closed), where=closed > 0
+        )
+        out["mean_contact_force_N"] = WHOLE * mean * force
+        out["contact_duration_s"] = closed * time
+        decel = columns["peak_block_deceleration"] * length / time**2
+        out["peak_block_deceleration_m_s2"] = decel
+        out["peak_block_deceleration_g"] = decel / STANDARD_GRAVITY
+    out["duration_s"] = columns["t_end"] * time
+    return out

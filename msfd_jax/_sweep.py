@@ -1,12 +1,9 @@
-"""Sweeps: many ring-on-beam collisions batched with `jax.vmap` under one compiled program.
+"""Sweeps: many ring-on-beam collisions on the batched core, fed from one queue (`_queue`).
 
-A sweep is a grid (a dict of value lists: their Cartesian product) or a list of collisions
-(a list of dicts). Every value is validated before anything is traced; the collisions are then
-run in chunks of `chunk_size` by one jit-compiled ``vmap`` of `simulate` (the last chunk is
-padded to the chunk size so that it reuses the program, and the padding is dropped), so memory
-stays bounded by one chunk. The result is a tidy `SweepTable`: one row per collision with its
-inputs and every output of ``msfd run --json``; a failed run is a row with its status and
-`diagnose`'s message, never a silent NaN.
+A sweep is a grid (a dict of value lists) or a list of collisions (a list of dicts), in groups
+or in SI (`_si.si_sweep`), every value validated before anything is traced. The result is a
+`SweepTable`, one row per collision with its inputs and every output of ``msfd run --json``;
+a failed run is a row with its status and `diagnose`'s message, never a silent NaN.
 """
 
 from __future__ import annotations
@@ -31,6 +28,7 @@ from ._cluster import solve_on_cluster
 from ._mappings import release_if_near_limit
 from ._outputs import FRACTION_KEYS, balance_warning, diagnose, fractions
 from ._params import CollisionParams, Mesh, validate
+from ._peaks import PEAK_KEYS
 from ._progress import SweepProgress as _SweepProgress
 from ._provenance import mesh_json
 from ._queue import DEFAULT_SLOTS, default_slots, default_workers, run_queue
@@ -38,7 +36,8 @@ from ._results import RESULTS
 from ._retry import RETRY_OUTPUTS, Attempts, assemble, solve_with_retries, with_retry_columns
 from ._scene import _ring_on_beam
 from ._shard import _critical_chunk, _run_chunk, _sharded_solver
-from ._simulate import Settings, undifferentiated
+from ._si import si_columns, si_sweep
+from ._simulate import Settings, _as_float64, undifferentiated
 from ._store import match_rows, open_store
 from ._table import SweepTable
 
@@ -57,6 +56,7 @@ SOLVED_OUTPUTS = (
     "status",
     "balance_warning",
     "message",
+    *PEAK_KEYS,
     "wall_time_s",
 )
 OUTPUTS = (*SOLVED_OUTPUTS, *RETRY_OUTPUTS)  # retries, safety: issue 12 (`_retry`)
@@ -149,12 +149,14 @@ def sweep(
     workers: int | None = None,
     on_rows: Callable[[np.ndarray, dict[str, np.ndarray]], None] | None = None,
 ) -> SweepTable:
-    """Run a grid or list of collisions, `chunk_size` at a time under one compiled vmap.
+    """Run a grid or list of collisions on `chunk_size` slots per worker, refilled as they stop.
 
     **Arguments:**
     - `grid_or_list`: ``{"thickness_ratio": [1, 2.5], "axial_constraint": [0, 1]}`` (a full
       grid) or ``[{"thickness_ratio": 1.0}, {"mass_ratio": 5.0}, ...]`` (a list); the keys are
-      `INPUTS` (the fields of `CollisionParams`), anything not given is taken from `base`.
+      `INPUTS` (the fields of `CollisionParams`), anything not given is taken from `base`;
+      or SI inputs (`run_si`'s keywords, missing ones `PAPER_SI`'s): the table then also has
+      the SI inputs, scales, energies in J and the peaks in SI (`msfd_jax._si.si_columns`).
     - `mesh`, `settings`: as for `run`. The default settings keep two history samples and no
       shapes (a sweep keeps only final values). `Settings.max_steps`, when None, is the bound
       `simulate` would take for the smallest step of the sweep (of the task, on a cluster):
@@ -189,7 +191,8 @@ def sweep(
 
     Raises ValueError/TypeError, before anything is compiled or written, for a bad value.
     """
-    columns, grid = collisions(grid_or_list, base)
+    si = si_sweep(grid_or_list)  # given in SI: groups per row, SI columns added at the end
+    columns, grid = collisions(grid_or_list if si is None else si[0], base)
     n = len(columns["thickness_ratio"])
     chunk_size = default_slots() if chunk_size is None else chunk_size
     task_size = chunk_size if task_size is None else task_size
@@ -249,6 +252,9 @@ def sweep(
         if store is not None:
             store.close()
     table = SweepTable({**columns, **_assemble(parts, n)}, grid, time.perf_counter() - start)
+    if si is not None:
+        table.columns.update(si_columns(table.columns, si[1]))
+        table.grid = si[2]
     if store is not None:
         store.finish(table.columns)
         table.computed = ~kept
@@ -489,12 +495,5 @@ def _rows(outputs: dict, solution, mesh: Mesh, wall: float) -> dict[str, np.ndar
     out["message"] = np.asarray([diagnose(solution, scene, i) for i in range(n)], dtype=str)
     # a chunk runs as one batch: each collision is given an equal share of its wall time
     out["wall_time_s"] = np.full(n, wall / n)
+    out.update({k: np.asarray(v, np.float64) for k, v in solution.peaks.items()})
     return out
-
-
-def _as_float64(v):
-    """A Settings number as a float64 array: numpy scalars and 0-d arrays (np.float32(0.5),
-    np.int64(2)) too, which would otherwise key a new compiled program by their dtype."""
-    if isinstance(v, jax.core.Tracer):
-        return v
-    return jnp.asarray(v, float)

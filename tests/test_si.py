@@ -274,6 +274,49 @@ def test_si_sweep_rows_equal_si_runs(tmp_path, capsys):
         assert table["beam_bending_J"][i] == pytest.approx(
             si["dissipated_J"]["beam_bending"], rel=1e-6, abs=1e-9 * si["k0_J"]
         )
+        for key in (
+            "peak_beam_deflection_m",
+            "peak_ring_crush_m",
+            "mean_contact_force_N",
+            "peak_block_deceleration_m_s2",
+        ):
+            # a per-step maximum of the contact's spike carries the batch's rounding: 1.3e-6
+            # measured on the deceleration, hence 1e-5 (the energies above keep 1e-6)
+            assert table[key][i] == pytest.approx(si[key], rel=1e-5), key
+
+
+def test_python_sweep_takes_si_inputs_and_gives_si_columns():
+    """`sweep` with SI keys: a grid over the impact speed (block mass fixed), each row's SI
+    columns equal to `run_si`'s (smoothed contact, as above); the grid is the SI axes; mixing
+    SI inputs and groups is refused; NetCDF variables carry their units."""
+    settings = m.Settings(t_max=1.5, history_points=2, shape_times=())
+    table = m.sweep(
+        {"impact_speed": [20.0, 30.0], "block_mass": [200.0]}, SMALL_MESH, settings,
+        contact_smoothing=COMPARE_SMOOTHING,
+    )  # fmt: skip
+    assert list(table.grid) == ["si_impact_speed", "si_block_mass"]
+    for i, v in enumerate((20.0, 30.0)):
+        si = m.run_si(
+            SMALL_MESH, m.Settings(t_max=1.5), impact_speed=v, block_mass=200.0,
+            contact_smoothing=COMPARE_SMOOTHING,
+        ).si  # fmt: skip
+        assert table["si_impact_speed"][i] == v
+        for key in (
+            "k0_J",
+            "peak_beam_deflection_m",
+            "peak_contact_force_N",
+            "mean_contact_force_N",
+            "contact_duration_s",
+            "duration_s",
+        ):
+            assert table[key][i] == pytest.approx(si[key], rel=1e-5), key
+        assert 0 < table["mean_contact_force_N"][i] <= table["peak_contact_force_N"][i]
+    with pytest.raises(ValueError, match="cannot be combined with SI inputs"):
+        m.sweep({"impact_speed": [20.0], "thickness_ratio": [2.0]}, SMALL_MESH, settings)
+    from msfd_jax._si import units_of
+
+    assert units_of("peak_beam_deflection_m") == "m" and units_of("si_impact_speed") == "m/s"
+    assert units_of("peak_block_deceleration_m_s2") == "m/s^2" and units_of("k0") is None
 
 
 @pytest.mark.parametrize(

@@ -3,9 +3,10 @@
 SI grids take the ``msfd run`` SI options (``--beam-thickness 0.1,0.15``, ``--impact-speed
 20:30:3``; missing values are `PAPER_SI`'s); their Cartesian product (last option fastest) is
 converted row by row with `from_si` and swept as a list. The table then gains the SI inputs
-(``si_<name>``), the unit scales (``scale_*``) and the energy quantities of the whole structure
-(``k0_J``, ``<mode>_J`` per dissipation mode, ``dissipated_total_J``, ``energy_left_J``,
-``duration_s``); the peaks of ``msfd run``'s ``si`` object need histories a sweep does not keep.
+(``si_<name>``), the unit scales (``scale_*``) and the design quantities of the whole structure
+(`msfd_jax._si.si_columns`: energies in J, the engine's peaks in SI, ``duration_s``); the
+10 ms deceleration and the final positions of ``msfd run``'s ``si`` object need a run's
+histories and final state. NetCDF variables carry their SI ``units`` attribute.
 
 Provenance: numeric columns ``mesh_*`` and ``settings_*`` (so ``--from-csv`` can read the table
 back), and the versions in the NetCDF attributes, the ``--json`` rows and, beside a ``--csv``,
@@ -25,7 +26,7 @@ import numpy as np
 import msfd_jax as m
 
 from .._provenance import mesh_json, now, settings_json, versions
-from .._si import DISSIPATION_KEYS, LEFT_KEYS, WHOLE
+from .._si import si_columns, units_of
 from . import common
 
 _CONSTRAINT = {"held": [True], "free": [False], "both": [False, True]}
@@ -90,21 +91,7 @@ def add_columns(table, info, mesh: m.Mesh, settings: m.Settings, args) -> None:
     """SI columns (when `info` is given) and numeric provenance columns, in place."""
     n = len(table)
     if info is not None:
-        for name in (*m.PAPER_SI, "beam_width"):
-            values = [row["inputs"].get(name) for row in info]
-            if any(v is not None for v in values):
-                table.columns[f"si_{name}"] = np.asarray(
-                    [np.nan if v is None else v for v in values], float
-                )
-        for key in ("moment", "length", "time", "force"):
-            table.columns[f"scale_{key}"] = np.asarray([vars(r["scales"])[key] for r in info])
-        energy = WHOLE * table["k0"] * table["scale_moment"]
-        table.columns["k0_J"] = energy
-        for key in (*DISSIPATION_KEYS, *LEFT_KEYS):
-            table.columns[f"{key}_J"] = table[key] * energy
-        table.columns["dissipated_total_J"] = sum(table[k] for k in DISSIPATION_KEYS) * energy
-        table.columns["energy_left_J"] = sum(table[k] for k in LEFT_KEYS) * energy
-        table.columns["duration_s"] = table["t_end"] * table["scale_time"]
+        table.columns.update(si_columns(table.columns, info))
         grid = si_grid(args)
         if grid is not None and args.axial_constraint != "both":
             table.grid = grid
@@ -145,6 +132,9 @@ def write_netcdf(table, path: Path, record: dict[str, Any]) -> None:
     except ValueError as error:
         raise common.UsageError(f"--netcdf {path}: {error}") from None
     data.attrs.update({k: json.dumps(v) for k, v in record.items()})
+    for name in data.variables:
+        if units_of(str(name)) is not None:
+            data[name].attrs["units"] = units_of(str(name))
     try:
         data.to_netcdf(path)
     except (OSError, ValueError, ImportError) as error:
