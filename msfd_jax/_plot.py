@@ -178,11 +178,13 @@ def plot_contact_force(collision: Collision, ax=None, *, si: bool | None = None)
     return fig
 
 
-def _plot_contact_pairs(fig: Figure, ax, collision: Collision) -> None:
-    """Ring node vs beam node of every active contact spring, coloured by time (Fig. 13e)."""
+def _plot_contact_pairs(fig: Figure, ax, collision: Collision, si: bool | None = None) -> None:
+    """Ring node vs beam node of every active contact spring, coloured by time (Fig. 13e):
+    tau, or ms in SI (as the other panels)."""
     sol = collision.solution
     keep = _finished(collision)
-    ts = np.asarray(sol.ts)[keep]
+    u = _units(collision, si)
+    ts = np.asarray(sol.ts)[keep] * u["t"]
     pairs = sol.history["contact_pairs"]
     if not pairs:
         ax.set_axis_off()
@@ -193,7 +195,7 @@ def _plot_contact_pairs(fig: Figure, ax, collision: Collision) -> None:
     # ends at the last contact, not at t_end (contact usually ends well before dissipation).
     last = ts[step].max() if step.size else ts[-1]
     points = ax.scatter(beam, ring, c=ts[step], s=14, cmap="viridis", vmin=0.0, vmax=last)
-    fig.colorbar(points, ax=ax, label=r"$\tau$")
+    fig.colorbar(points, ax=ax, label=u["tl"])
     ax.set_xlim(-0.5, active.shape[2] - 0.5)
     ax.set_ylim(-0.5, active.shape[1] - 0.5)
     ax.set(xlabel="beam node (from O)", ylabel="ring node (from S)", title="(d) contact pairs")
@@ -222,7 +224,7 @@ def plot_collision(
     plot_energies(collision, ax_energy, si=si)
     plot_contact_force(collision, ax_force, si=si)
     plot_shapes(collision, ax_shapes, si=si)
-    _plot_contact_pairs(bottom, ax_pairs, collision)
+    _plot_contact_pairs(bottom, ax_pairs, collision, si)
     p = collision.params
     fig.suptitle(
         rf"$h_b/h_r$ = {float(p.thickness_ratio):g}, g = {float(p.mass_ratio):g}, "

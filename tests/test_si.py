@@ -228,6 +228,7 @@ def test_si_figures_and_axes_arguments(collision, tmp_path):
     fig = plot_collision(collision, tmp_path / "si.png")
     labels = {ax.get_xlabel() for ax in fig.axes} | {ax.get_ylabel() for ax in fig.axes}
     assert "t [ms]" in labels and "energy [kJ] (whole structure)" in labels and "y [m]" in labels
+    assert r"$\tau$" not in labels  # panel (d)'s colour scale too is in ms
     assert (tmp_path / "si.png").stat().st_size > 0
     plain = plot_collision(collision, si=False)
     assert r"$E / K_0$" in {ax.get_ylabel() for ax in plain.axes}
