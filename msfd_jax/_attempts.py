@@ -36,9 +36,12 @@ RETRY_NOTE = "; a rerun at a smaller step closed the balance no better"
 
 
 def step_is_cause(result, dt, dt_critical):
-    """True (elementwise) where a smaller step can fix the failure: non-finite or energy
-    balance broken with dt above `STEP_CAUSE` x the stability limit (`diagnose`'s cause)."""
-    failed = np.isin(np.asarray(result), (RESULTS.non_finite, RESULTS.energy_balance_broken))
+    """True (elementwise) where a smaller step may fix the failure: non-finite, energy balance
+    broken or folded with dt above `STEP_CAUSE` x the stability limit (`diagnose`'s cause;
+    a fold was reported as a broken balance before it had its own code, and is retried as
+    it was then)."""
+    stopped = (RESULTS.non_finite, RESULTS.energy_balance_broken, RESULTS.folded)
+    failed = np.isin(np.asarray(result), stopped)
     return failed & (np.asarray(dt) > STEP_CAUSE * np.asarray(dt_critical))
 
 

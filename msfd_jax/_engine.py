@@ -481,12 +481,16 @@ def advance(flat: FlatScene, clock: Clock, s: BatchState, substeps: int, rule) -
         non_finite,
         RESULTS.non_finite,
         jnp.where(
-            broken,
+            jnp.abs(err) > rule.energy_guard,
             RESULTS.energy_balance_broken,
             jnp.where(
-                settled | capped,
-                jnp.where(t_next < clock.t_max, RESULTS.settled, RESULTS.time_limit),
-                RESULTS.max_steps,
+                folded,  # the balance holds: the fold guard stopped it (`RESULTS.folded`)
+                RESULTS.folded,
+                jnp.where(
+                    settled | capped,
+                    jnp.where(t_next < clock.t_max, RESULTS.settled, RESULTS.time_limit),
+                    RESULTS.max_steps,
+                ),
             ),
         ),
     ).astype(float)

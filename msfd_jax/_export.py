@@ -142,6 +142,23 @@ def call(fn: Callable, *args, name: str):
     return _programs[key](*args)
 
 
+_on_compile: list[Callable[[], None]] = []
+
+
+def on_compile(callback: Callable[[], None] | None) -> None:
+    """Call `callback()` (once per program) before a program is traced and compiled anew,
+    never when it is loaded from the store: the CLI says "compiling" only when it does.
+    None removes it."""
+    _on_compile.clear()
+    if callback is not None:
+        _on_compile.append(callback)
+
+
+def _compiling() -> None:
+    for callback in _on_compile:
+        callback()
+
+
 def compile_program(fn: Callable, *args, name: str) -> Program:
     """The compiled program of ``fn(*args)`` (`fn` jitted, e.g. by `eqx.filter_jit`).
 
@@ -160,6 +177,7 @@ def compile_program(fn: Callable, *args, name: str) -> Program:
         exported, template = loaded
         source = "loaded"
     else:
+        _compiling()
         try:
             exported, template = _export(fn, dynamic, rebuild)
             serialized = bytes(exported.serialize())
@@ -181,6 +199,7 @@ def _path(name: str, key_text: str) -> Path:
 
 
 def _traced(fn: Callable, args: tuple, reason: str) -> Program:
+    _compiling()
     return Program(fn.lower(*args).compile(), None, "traced", reason)
 
 

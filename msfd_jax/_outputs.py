@@ -132,9 +132,10 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
             else "refine the mesh (Mesh.refined) or lower the velocity; a smaller dt rarely helps"
         )
     what = "became non-finite" if code == RESULTS.non_finite else "broke its energy balance"
-    err = float(sol.energy_balance_error) if code == RESULTS.energy_balance_broken else float("nan")
+    balance = code in (RESULTS.energy_balance_broken, RESULTS.folded)
+    err = float(sol.energy_balance_error) if balance else float("nan")
     detail = f" (error {err:.3g} K0)" if code == RESULTS.energy_balance_broken else ""
-    fold = _folded(sol, scene) if code == RESULTS.energy_balance_broken else ""
+    fold = _folded(sol, scene) if balance else ""
     if fold and np.isfinite(err):  # the fold guard (`_engine.FOLD_LIMIT`), not the balance
         if any(isinstance(k, BlockFaceContact | SelfContact) for k in scene.contacts):
             why = "the collapse contacts did not stop the fold"
@@ -180,7 +181,7 @@ def _folded(sol: Solution, scene: Scene) -> str:
 
     The joint angle is continuous past pi (`_safe.unwrap_near`), so the energy balance holds,
     but the bars then overlap: the model has no ring-on-ring or ring-on-block contact to stop
-    it, so the engine stops the run there (result 3, this message).
+    it, so the engine stops the run there (`RESULTS.folded`, this message).
     """
     for c, rotation in zip(scene.chains, sol.final.plastic_rotation, strict=True):
         rotation = np.abs(np.asarray(rotation))

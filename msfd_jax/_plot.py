@@ -304,3 +304,43 @@ def _table_labels(table) -> list[str]:
         ", ".join(f"{k} = {float(table[k][i]):.3g}" for k in varying) or str(i)
         for i in range(len(table))
     ]
+
+
+def plot_sweep(table, path: str | Path | None = None) -> Figure:
+    """The final partition against the swept input: stacked fractions of K0 over the one input
+    that varies (SI inputs preferred, as `si_*`), one panel per axial constraint when both are
+    swept; failed rows are marked, not drawn as data. A sweep over several inputs, or a list,
+    gets `plot_partition`'s bars, one per row.
+    """
+    from ._sweep import INPUTS
+
+    names = [k for k in table.keys() if k.startswith("si_")] or [
+        k for k in INPUTS if k in table.keys()
+    ]
+    varying = [
+        k for k in names if k != "axial_constraint" and np.unique(np.asarray(table[k])).size > 1
+    ]
+    if len(varying) != 1:
+        return plot_partition(table, path)
+    x_name = varying[0]
+    held = np.asarray(table["axial_constraint"], float)
+    groups = [v for v in (1.0, 0.0) if np.any(held == v)]
+    fig = _Figure(figsize=(6.5 * len(groups), 4.5), layout="constrained")
+    failed = np.asarray(table.failed, bool)
+    for ax, value in zip(np.atleast_1d(fig.subplots(1, len(groups))), groups, strict=True):
+        rows = np.flatnonzero((held == value) & ~failed)
+        rows = rows[np.argsort(np.asarray(table[x_name], float)[rows])]
+        x = np.asarray(table[x_name], float)[rows]
+        shares = [np.asarray(table[k], float)[rows] for k in FRACTION_KEYS]
+        ax.stackplot(x, *shares, colors=[COLOURS[k] for k in FRACTION_KEYS], alpha=0.85,
+                     labels=[LABELS[k] for k in FRACTION_KEYS])  # fmt: skip
+        bad = np.flatnonzero((held == value) & failed)
+        if bad.size:
+            ax.plot(np.asarray(table[x_name], float)[bad], np.zeros(bad.size), "rx", ms=8,
+                    clip_on=False, label="failed run (not data)")  # fmt: skip
+        unit = x_name.removeprefix("si_")
+        ax.set(xlabel=unit, ylabel=r"fraction of $K_0$", ylim=(0.0, 1.0),
+               title=f"axially {'constrained' if value else 'free'} beam")  # fmt: skip
+        ax.grid(alpha=0.3)
+    fig.axes[0].legend(fontsize="small", loc="best")
+    return _save(fig, path)

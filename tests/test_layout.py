@@ -130,7 +130,7 @@ def test_msfd_run_with_a_stored_program_imports_no_diffrax(tmp_path):
         " 'dask', 'pandas', 'tqdm') if m in sys.modules))"
     )
     env = {**os.environ, "MSFD_CACHE_DIR": str(tmp_path)}
-    lines = []
+    lines, notes = [], []
     for _ in range(2):  # the first process traces and stores, the second loads
         done = subprocess.run(
             [sys.executable, "-c", code], capture_output=True, text=True, timeout=600,
@@ -138,5 +138,8 @@ def test_msfd_run_with_a_stored_program_imports_no_diffrax(tmp_path):
         )  # fmt: skip
         assert done.returncode == 0, done.stderr[-3000:]
         lines.append(done.stdout.strip().splitlines()[-1])
+        notes.append("compiling" in done.stderr)
     assert "diffrax" in lines[0]  # the first traced (so the check below is not vacuous)
     assert lines[1] == "[]"
+    # the CLI says it compiles only when it does: not when it loads the stored programs
+    assert notes == [True, False]

@@ -243,6 +243,21 @@ def test_si_figures_and_axes_arguments(collision, tmp_path):
             "velocity": np.array([0.8, 0.8]),
         }
     )
+    # msfd sweep --plot: stacked shares against the one swept input, a failed row marked
+    from msfd_jax._plot import plot_sweep
+
+    swept = SweepTable(
+        {
+            **{k: np.array([v, v, v]) for k, v in collision.fractions.items()},
+            "thickness_ratio": np.array([1.0, 2.5, 4.0]),
+            "axial_constraint": np.ones(3),
+            "result": np.array([1, 1, 3]),
+            "status": np.array(["settled", "settled", "energy balance broken"]),
+        }
+    )
+    fig = plot_sweep(swept, tmp_path / "sweep.png")
+    assert fig.axes[0].get_xlabel() == "thickness_ratio" and (tmp_path / "sweep.png").exists()
+    assert "failed run (not data)" in [t.get_text() for t in fig.axes[0].get_legend().texts]
     bars = Figure().subplots()
     plot_partition(table, ax=bars)
     assert [t.get_text() for t in bars.get_yticklabels()] == [

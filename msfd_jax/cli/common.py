@@ -328,3 +328,16 @@ def name_the_option(message: str, si: bool = False) -> str:
             others = [f for k, f in OPTION_NAMES.items() if k != field and f" {k} = " in message]
             return f"{message} (option{'s' if others else ''} {', '.join([flag, *others])})"
     return message
+
+
+def check_plot(path: Path | None) -> None:
+    """Refuse a --plot file that could not be written, before the run rather than after."""
+    if path is None:
+        return
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    formats = sorted(FigureCanvasBase.get_supported_filetypes())
+    if path.suffix and path.suffix[1:].lower() not in formats:
+        raise UsageError(f"--plot {path}: unknown format {path.suffix!r}; allowed: {formats}")
+    if not path.resolve().parent.is_dir():
+        raise UsageError(f"--plot {path}: no such directory {str(path.parent)!r}")

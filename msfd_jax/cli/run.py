@@ -11,14 +11,14 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import math
 from pathlib import Path
 from typing import Any
 
 import msfd_jax as m
 
+from .. import _export
 from .._params import _check_scalar, _check_value
-from .._provenance import now, settings_from_json, versions
+from .._provenance import dumps, now, settings_from_json, versions
 from .._si import table_lines
 from .common import (
     EXIT_OK,
@@ -29,6 +29,7 @@ from .common import (
     add_case_argument,
     add_collision_arguments,
     add_numerics_arguments,
+    check_plot,
     checked,
     collision_from_args,
     enable_compilation_cache,
@@ -155,19 +156,6 @@ def _check_smoothing(args: argparse.Namespace) -> None:
         _check_scalar(name, getattr(args, name))
 
 
-def _check_plot(path: Path | None) -> None:
-    """Refuse a --plot file that could not be written, before the run rather than after."""
-    if path is None:
-        return
-    from matplotlib.backend_bases import FigureCanvasBase
-
-    formats = sorted(FigureCanvasBase.get_supported_filetypes())
-    if path.suffix and path.suffix[1:].lower() not in formats:
-        raise UsageError(f"--plot {path}: unknown format {path.suffix!r}; allowed: {formats}")
-    if not path.resolve().parent.is_dir():
-        raise UsageError(f"--plot {path}: no such directory {str(path.parent)!r}")
-
-
 def _check_single(params: m.CollisionParams) -> None:
     """One collision: every group a single value (a --from-json record could hold lists)."""
     for f in dataclasses.fields(params):
@@ -179,17 +167,6 @@ def _si_inputs(args: argparse.Namespace) -> dict[str, float] | None:
     if not (args.si or given):
         return None
     return {**m.PAPER_SI, **given, "axial_constraint": bool(args.axial_constraint)}
-
-
-def finite(value: Any) -> Any:
-    """`value` with every non-finite float as None (strict JSON has no NaN or inf)."""
-    if isinstance(value, dict):
-        return {k: finite(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [finite(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 def failure_record(status: str, message: str, inputs: dict[str, Any]) -> dict[str, Any]:
@@ -211,11 +188,18 @@ def handle(args: argparse.Namespace) -> int:
     # What `ring_on_beam` would reject, checked here so that `run` only fails in the solve.
     checked(m.validate, params, mesh, si=si)
     checked(_check_single, params)
-    _check_plot(args.plot)
+    check_plot(args.plot)
     checked(_check_smoothing, args)
     cache = None if args.no_cache else enable_compilation_cache()
     where = f" (compiled code is cached in {cache})" if cache else ""
-    note(f"running; the first run of a mesh compiles for a while{where}...")
+    told = []  # the note once, and only when a program is compiled (not loaded from the store)
+
+    def compiling() -> None:
+        if not told:
+            told.append(True)
+            note(f"compiling the solver for this mesh and settings (once){where}...")
+
+    _export.on_compile(compiling)
     try:
         collision = m.run(
             params,
@@ -241,14 +225,14 @@ def handle(args: argparse.Namespace) -> int:
                     **({"t_s": record["t_end"] * scales.time} if scales is not None else {}),
                 },
             }
-            print(json.dumps(finite({**record, **failed})))
+            print(dumps({**record, **failed}))
         return EXIT_SOLVE
     if args.plot is not None:
         from .._plot import plot_collision
 
         plot_collision(collision, args.plot)
     if args.json:
-        print(json.dumps(finite({"ok": True, **collision.to_json()})))
+        print(dumps({"ok": True, **collision.to_json()}))
     else:
         print(report(collision, scales))
         if args.plot is not None:

@@ -115,6 +115,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="grid as NetCDF (needs xarray, h5netcdf and h5py: pip install 'msfd-jax[sweep]')",
     )
     out.add_argument("--json", action="store_true", help="print the rows as JSON, nothing else")
+    out.add_argument(
+        "--plot",
+        type=Path,
+        metavar="PNG",
+        help="draw the final partition against the swept input (bars per row for a sweep over "
+        "several inputs or a list)",
+    )
 
 
 def grid_from_args(args: argparse.Namespace):
@@ -204,6 +211,7 @@ def check_netcdf_dependencies(args: argparse.Namespace) -> None:
 
 def handle(args: argparse.Namespace) -> int:
     check_netcdf_dependencies(args)
+    common.check_plot(args.plot)
     if args.host_devices is not None:
         _use_host_devices(args.host_devices, args.shard)
     spec = common.checked(grid_from_args, args)
@@ -249,12 +257,18 @@ def handle(args: argparse.Namespace) -> int:
         sweep_si.write_provenance(args.csv, record)
     if args.netcdf is not None:
         sweep_si.write_netcdf(table, args.netcdf, record)
+    if args.plot is not None:
+        from .._plot import plot_sweep
+
+        plot_sweep(table, args.plot)
     if args.json:
         print(common.dumps([{**row, "versions": record["versions"]} for row in table.rows()]))
     else:
         print(summary(table))
         if output is not None:
             print(f"table written to {output}")
+        if args.plot is not None:
+            print(f"plot saved to {args.plot}")
     return common.EXIT_SOLVE if table.failed.any() else common.EXIT_OK
 
 

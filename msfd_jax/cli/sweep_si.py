@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import json
 from pathlib import Path
 from typing import Any
 
@@ -119,7 +118,7 @@ def provenance(mesh: m.Mesh, settings: m.Settings, args) -> dict[str, Any]:
 
 def write_provenance(path: Path, record: dict[str, Any]) -> Path:
     side = path.with_name(path.name + ".provenance.json")
-    side.write_text(json.dumps(record, indent=1))
+    side.write_text(common.dumps(record, indent=1))
     return side
 
 
@@ -131,7 +130,7 @@ def write_netcdf(table, path: Path, record: dict[str, Any]) -> None:
         raise common.UsageError("--netcdf needs xarray (pip install 'msfd-jax[sweep]')") from None
     except ValueError as error:
         raise common.UsageError(f"--netcdf {path}: {error}") from None
-    data.attrs.update({k: json.dumps(v) for k, v in record.items()})
+    data.attrs.update({k: common.dumps(v) for k, v in record.items()})
     for name in data.variables:
         if units_of(str(name)) is not None:
             data[name].attrs["units"] = units_of(str(name))
