@@ -477,22 +477,11 @@ def advance(flat: FlatScene, clock: Clock, s: BatchState, substeps: int, rule) -
         settled = quiet & (apart | spent)
     out_of_steps = k >= clock.max_steps
     stop = broken | settled | capped | out_of_steps
-    code = jnp.where(
-        non_finite,
-        RESULTS.non_finite,
-        jnp.where(
-            jnp.abs(err) > rule.energy_guard,
-            RESULTS.energy_balance_broken,
-            jnp.where(
-                folded,  # the balance holds: the fold guard stopped it (`RESULTS.folded`)
-                RESULTS.folded,
-                jnp.where(
-                    settled | capped,
-                    jnp.where(t_next < clock.t_max, RESULTS.settled, RESULTS.time_limit),
-                    RESULTS.max_steps,
-                ),
-            ),
-        ),
+    ended = settled | capped  # folded: the fold guard stopped it, the balance holds
+    code = jnp.select(
+        [non_finite, jnp.abs(err) > rule.energy_guard, folded, ended & (t_next < clock.t_max)],
+        [RESULTS.non_finite, RESULTS.energy_balance_broken, RESULTS.folded, RESULTS.settled],
+        jnp.where(ended, RESULTS.time_limit, RESULTS.max_steps),
     ).astype(float)
     y = eqx.tree_at(
         lambda q: (q.t, q.k, q.done, q.code),

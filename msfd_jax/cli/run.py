@@ -87,7 +87,7 @@ def read_record(path: Path) -> dict[str, Any]:
             continue
         if not isinstance(value, dict):
             raise UsageError(
-                f"--from-json {path}: {part} must be a JSON object, got {json.dumps(value)}"
+                f"--from-json {path}: {part} must be a JSON object, got {dumps(value)}"
             )
         unknown = sorted(set(value) - keys)
         if unknown:

@@ -397,15 +397,8 @@ def verdict(row: dict[str, Any]) -> str:
     if expect == REFUSED:
         ok = result == REFUSED and row["cause"] in row["message"]
     elif expect == STOPPED:
-        ok = (
-            result
-            in (
-                RESULTS.non_finite.status,
-                RESULTS.energy_balance_broken.status,
-                RESULTS.folded.status,
-            )
-            and row["cause"] in row["message"]
-        )
+        stopped = (RESULTS.non_finite, RESULTS.energy_balance_broken, RESULTS.folded)
+        ok = result in {r.status for r in stopped} and row["cause"] in row["message"]
     else:
         ok = (
             result in (RESULTS.settled.status, RESULTS.time_limit.status)
