@@ -21,6 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..._params import CollisionParams, Mesh, validate
+from ..._provenance import json_ready
 from ..._results import FAILED, RESULTS
 from ..._scene import ring_on_beam
 from ..._simulate import Settings, simulate
@@ -225,17 +226,7 @@ def table(header: Sequence[str], rows: Sequence[Sequence[Any]], fmt: str = ".3f"
     return "\n".join(lines)
 
 
-def jsonable(value):
-    """numpy arrays and scalars to lists and floats (recursively)."""
-    if isinstance(value, dict):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return jsonable(value.tolist())
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
+jsonable = json_ready  # what a figure publishes: plain JSON data (non-finite as null)
 
 
 def constraint_name(value: float) -> str:
