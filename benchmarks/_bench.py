@@ -103,7 +103,8 @@ def half_way(mesh, b: int, dt: float, steps: int):
 
     import jax.numpy as jnp
 
-    from msfd_jax import _queue, _sweep
+    from msfd_jax._sweeps import queue as _queue
+    from msfd_jax._sweeps import sweep as _sweep
 
     settings = dataclasses.replace(_sweep.SWEEP_SETTINGS, t_max=10.0)
     p = batch_params(b, (2.0, 3.0))
@@ -127,7 +128,7 @@ def substep_loop(steps: int, h, tolerance, listed: bool = False):
     import equinox as eqx
     import jax
 
-    from msfd_jax import _engine
+    from msfd_jax._batched import engine as _engine
 
     def loop(flat, y):
         loop_name = "listed" if listed else "blocks"

@@ -9,7 +9,7 @@ Same model and step as ``msfd_jax.simulate`` for a ring-on-beam scene:
   end: no spring), bar strains (l - l0)/l0, contact approach gap - |x_I - x_J| over every ring
   node x every beam node of OC;
 - sharp elastic-perfectly plastic return mappings (Eq. 2, 3) and the compression-only contact
-  spring with permanent set (Eq. 18), exactly as ``msfd_jax._laws`` with zero smoothing;
+  spring with permanent set (Eq. 18), exactly as ``msfd_jax._model.laws`` with zero smoothing;
 - nodal forces by hand: the analytic gradient of the elastic energy (d atan2 / d bar vectors,
   d |b| / d b), i.e. Eq. (10);
 - velocity Verlet with the return mapping at the new positions, on diffrax's time grid for a
@@ -337,7 +337,7 @@ def simulate_arrays(
 
 def chain_constants(chain):
     """numpy copies of one msfd_jax Chain's constants, and its static layout."""
-    from msfd_jax._chain import Chain
+    from msfd_jax._model.chain import Chain
 
     assert isinstance(chain, Chain)
     start, end = _KIND[chain.start], _KIND[chain.end]
@@ -371,8 +371,8 @@ class Reference:
     """The numba model of one ring-on-beam scene and settings (constants from msfd_jax)."""
 
     def __init__(self, scene, settings):
-        import msfd_jax._simulate as sim
-        from msfd_jax._contact import NodeToNodeContact
+        import msfd_jax._batched.simulate as sim
+        from msfd_jax._model.contact import NodeToNodeContact
 
         if float(scene.contact_smoothing) != 0.0 or float(scene.yield_smoothing) != 0.0:
             raise ValueError("the numba reference implements the sharp laws only")

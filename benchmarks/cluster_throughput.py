@@ -3,7 +3,7 @@
 The 64-collision sweep of `sweep_throughput.py` (h_b/h_r 0.25..5 x free/held x g = 5, 10) on
 the paper's mesh, chunks of 8 (tasks of 8 collisions on the clusters), side by side in one
 run: in process (JAX's default threads), LocalCluster with 1 and 2 single-threaded workers
-(`msfd_jax._cluster.WORKER_ENV`), and 2 workers with XLA's default threading. Each
+(`msfd_jax._sweeps.cluster.WORKER_ENV`), and 2 workers with XLA's default threading. Each
 configuration first runs one task's worth of collisions (compiling it, or loading it from the
 shared persistent compile cache: the first cluster compiles, the later ones load), then the
 whole sweep is timed: collisions/s exclude start-up and compilation. Every table is compared
@@ -30,8 +30,8 @@ import jax
 import numpy as np
 
 import msfd_jax as m
-from msfd_jax import _cluster
-from msfd_jax._sweep import OUTPUTS, SWEEP_SETTINGS, sweep
+from msfd_jax._sweeps import cluster as _cluster
+from msfd_jax._sweeps.sweep import OUTPUTS, SWEEP_SETTINGS, sweep
 
 MESH = m.Mesh()
 GRID = {

@@ -61,7 +61,7 @@ def main() -> None:
         args.slots, args.repeats = [16], 1
 
     import msfd_jax as m
-    from msfd_jax import _sweep
+    from msfd_jax._sweeps import sweep as _sweep
 
     record: dict = dict(
         command="python benchmarks/core_throughput.py " + " ".join(sys.argv[1:]),

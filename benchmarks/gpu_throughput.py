@@ -69,7 +69,7 @@ def params_of(n: int):
 
     import jax.numpy as jnp
 
-    from msfd_jax._params import CollisionParams
+    from msfd_jax._model.params import CollisionParams
 
     g = grid(n)
     rows = np.array(list(itertools.product(*g.values())))
@@ -87,8 +87,9 @@ def segment_cost(loop: str, b: int, segments: int) -> dict:
     import jax.numpy as jnp
 
     import msfd_jax as m
-    from msfd_jax import _queue, _sweep
-    from msfd_jax._shard import _critical_chunk
+    from msfd_jax._sweeps import queue as _queue
+    from msfd_jax._sweeps import sweep as _sweep
+    from msfd_jax._sweeps.shard import _critical_chunk
 
     mesh = m.Mesh()
     settings = _sweep._sweep_settings(_sweep.SWEEP_SETTINGS, mesh)
@@ -130,8 +131,8 @@ def computed(loop: str | None) -> dict:
     first attempts) and regression_baseline.py's 64-collision sweep, with the showcase's
     warm wall time."""
     import msfd_jax as m
-    from msfd_jax import _sweep
-    from msfd_jax._attempts import first_attempts
+    from msfd_jax._collision.attempts import first_attempts
+    from msfd_jax._sweeps import sweep as _sweep
     from msfd_jax.studies.scripts import regression_baseline as rb
 
     out: dict = {"singles": {}}
@@ -159,7 +160,7 @@ def computed(loop: str | None) -> dict:
 
 
 def _sweep_settings(loop: str | None):
-    from msfd_jax import _sweep
+    from msfd_jax._sweeps import sweep as _sweep
 
     if loop is None:
         return _sweep.SWEEP_SETTINGS
@@ -210,7 +211,7 @@ def check(loop: str | None) -> dict:
 
 def whole_sweep(loop: str, b: int, n: int) -> dict:
     import msfd_jax as m
-    from msfd_jax import _sweep
+    from msfd_jax._sweeps import sweep as _sweep
 
     settings = _sweep_settings(loop)
     tick = time.perf_counter()

@@ -19,7 +19,7 @@ import _bench
 import jax
 
 import msfd_jax as m
-from msfd_jax import _mappings
+from msfd_jax._runtime import mappings as _mappings
 
 
 def main() -> None:

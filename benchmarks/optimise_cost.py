@@ -47,8 +47,8 @@ import numpy as np
 
 import msfd_jax as m
 import optimise as o
-from msfd_jax._queue import solve_batch
-from msfd_jax._sweep import step_bound
+from msfd_jax._sweeps.queue import solve_batch
+from msfd_jax._sweeps.sweep import step_bound
 from optimise._gradient import _forward, _reverse
 from optimise._problem import _evaluate, arrays, objective_value_and_grad
 

@@ -31,10 +31,10 @@ import _bench
 import numpy as np
 
 import msfd_jax as m
-from msfd_jax import _attempts
-from msfd_jax._params import _check_collapse
-from msfd_jax._provenance import now, versions
-from msfd_jax._sweep import SWEEP_SETTINGS, sweep
+from msfd_jax._collision import attempts as _attempts
+from msfd_jax._collision.provenance import now, versions
+from msfd_jax._model.params import _check_collapse
+from msfd_jax._sweeps.sweep import SWEEP_SETTINGS, sweep
 
 RANGES = {  # log-uniform
     "thickness_ratio": (0.2, 8.0),

@@ -1,7 +1,7 @@
 """Issue 11's goal 4: a new ``msfd run --json`` process with a warm compile cache (<= 2 s).
 
 Runs the showcase once in a new process to fill a fresh cache (compiled programs and the
-serialized programs of `msfd_jax._export`), then `--repeats` more times, and prints each
+serialized programs of `msfd_jax._runtime.export`), then `--repeats` more times, and prints each
 process's wall time, its CPU time (user + system: what the wall time is on an idle core, and
 what stays comparable when other work shares the core), and the JSON's own split: the run
 (`wall_time_s`) and the compilation or cache load (`compile_time_s`); the rest is Python

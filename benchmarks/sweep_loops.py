@@ -42,7 +42,7 @@ def main() -> None:
 
     jax.config.update("jax_enable_x64", True)
     import msfd_jax as m
-    from msfd_jax import _sweep
+    from msfd_jax._sweeps import sweep as _sweep
 
     grid = _bench.GRID
     rows = [dict(zip(grid, v, strict=True)) for v in itertools.product(*grid.values())]

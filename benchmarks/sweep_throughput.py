@@ -1,4 +1,4 @@
-"""Sweep throughput: collisions per second of `msfd_jax._sweep.sweep` by chunk size and mesh.
+"""Sweep throughput: collisions per second of `msfd_jax._sweeps.sweep.sweep` by chunk size and mesh.
 
 A 64-collision sweep (h_b/h_r from 0.25 to 5 in 16 steps x free/constrained x g = 5, 10; the
 paper's v0 = 0.82, Fig. 10) runs on the paper's mesh (15, 20 + 5) and on the small test mesh
@@ -35,7 +35,7 @@ import jax
 import numpy as np
 
 import msfd_jax as m
-from msfd_jax._sweep import SWEEP_SETTINGS, collisions, step_bound, sweep
+from msfd_jax._sweeps.sweep import SWEEP_SETTINGS, collisions, step_bound, sweep
 
 MESHES = {"paper": m.Mesh(), "small": m.Mesh(6, 8, 2)}
 GRID = {

@@ -11,12 +11,9 @@ try:
 except _metadata.PackageNotFoundError:  # a source tree on sys.path, not installed
     __version__ = "0+unknown"
 
-from ._chain import Chain, Section, rectangular_section  # noqa: E402
-from ._contact import AbstractContact, NodeToNodeContact, NodeToPlaneContact  # noqa: E402
-from ._dynamics import State, critical_step, initial_state, max_frequency, respond  # noqa: E402
-from ._laws import contact_energy, contact_spring, elastic_plastic, ramp  # noqa: E402
-from ._mappings import CompiledProgramsReleased  # noqa: E402
-from ._outputs import (  # noqa: E402
+from ._batched.results import RESULT_NAMES, RESULTS  # noqa: E402
+from ._batched.simulate import Settings, Solution, simulate  # noqa: E402
+from ._collision.run import (  # noqa: E402
     FRACTION_KEYS,
     Collision,
     SimulationError,
@@ -25,9 +22,11 @@ from ._outputs import (  # noqa: E402
     run,
     run_si,
 )
-from ._params import PAPER_SI, CollisionParams, Mesh, Scales, from_si, validate  # noqa: E402
-from ._results import RESULT_NAMES, RESULTS  # noqa: E402
-from ._scene import (  # noqa: E402
+from ._model.chain import Chain, Section, rectangular_section  # noqa: E402
+from ._model.contact import AbstractContact, NodeToNodeContact, NodeToPlaneContact  # noqa: E402
+from ._model.laws import contact_energy, contact_spring, elastic_plastic, ramp  # noqa: E402
+from ._model.params import PAPER_SI, CollisionParams, Mesh, Scales, from_si, validate  # noqa: E402
+from ._model.scene import (  # noqa: E402
     Drive,
     Scene,
     beam_midspan_load,
@@ -35,8 +34,10 @@ from ._scene import (  # noqa: E402
     ring_on_beam,
     ring_on_plate,
 )
-from ._simulate import Settings, Solution, simulate  # noqa: E402
-from ._sweep import SweepTable, solve_collisions, sweep  # noqa: E402
+from ._model.state import State, critical_step, max_frequency  # noqa: E402
+from ._reference.dynamics import initial_state, respond  # noqa: E402
+from ._runtime.mappings import CompiledProgramsReleased  # noqa: E402
+from ._sweeps.sweep import SweepTable, solve_collisions, sweep  # noqa: E402
 
 __all__ = [
     "CompiledProgramsReleased",

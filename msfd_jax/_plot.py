@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from ._outputs import FRACTION_KEYS, Collision
+from ._collision.run import FRACTION_KEYS, Collision
 
 # One colour per energy store, shared by every figure (tab10, dissipation warm, recoverable cool).
 COLOURS = {
@@ -297,7 +297,7 @@ def plot_partition(
 
 
 def _table_labels(table) -> list[str]:
-    from ._sweep import INPUTS
+    from ._sweeps.sweep import INPUTS
 
     varying = [k for k in INPUTS if k in table.keys() and np.unique(table[k]).size > 1]
     return [
@@ -312,7 +312,7 @@ def plot_sweep(table, path: str | Path | None = None) -> Figure:
     swept; failed rows are marked, not drawn as data. A sweep over several inputs, or a list,
     gets `plot_partition`'s bars, one per row.
     """
-    from ._sweep import INPUTS
+    from ._sweeps.sweep import INPUTS
 
     names = [k for k in table.keys() if k.startswith("si_")] or [
         k for k in INPUTS if k in table.keys()

@@ -21,8 +21,8 @@ import jax
 import jax.numpy as jnp
 
 import msfd_jax as m
-from msfd_jax._cap import time_cap
-from msfd_jax._simulate import max_steps_for
+from msfd_jax._batched.simulate import max_steps_for
+from msfd_jax._model.cap import time_cap
 
 from ._conditions import Conditions, expectation
 from ._design import Box, Design

@@ -34,7 +34,7 @@ COMPARE_SMOOTHING = 1e-3
 def _no_export_store_leaks():
     """A test that runs the CLI in-process switches the export store on (as the CLI does);
     later tests must see the library's default (off) again."""
-    from msfd_jax import _export
+    from msfd_jax._runtime import export as _export
 
     before = _export.store()
     yield
@@ -76,7 +76,7 @@ SUITE_RELEASE_AT = 0.5
 @pytest.fixture(autouse=True)
 def _stay_under_the_memory_map_limit():
     yield
-    from msfd_jax import _mappings
+    from msfd_jax._runtime import mappings as _mappings
 
     _mappings.release(SUITE_RELEASE_AT)
 

@@ -12,17 +12,18 @@ import pytest
 from conftest import SMALL_MESH
 
 import msfd_jax as m
-from msfd_jax import _attempts, _outputs
-from msfd_jax._attempts import (
+from msfd_jax._batched.results import BALANCE_TOLERANCE, RESULTS
+from msfd_jax._collision import attempts as _attempts
+from msfd_jax._collision import run as _outputs
+from msfd_jax._collision.attempts import (
     BALANCE_RETRIES,
     BALANCE_RETRY_ABOVE,
     RETRY_NOTE,
     keep_earlier,
     needs_retry,
+    solve_with_retries,
 )
-from msfd_jax._results import BALANCE_TOLERANCE, RESULTS
-from msfd_jax._retry import solve_with_retries
-from msfd_jax._sweep import SWEEP_SETTINGS
+from msfd_jax._sweeps.sweep import SWEEP_SETTINGS
 
 LEAN = dataclasses.replace(SWEEP_SETTINGS, max_steps=2**14)
 OK, BROKEN = int(RESULTS.settled), int(RESULTS.energy_balance_broken)

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import msfd_jax as m
-from msfd_jax import _export
+from msfd_jax._runtime import export as _export
 from msfd_jax.cli import enable_compilation_cache, main
 from msfd_jax.cli.common import dumps
 

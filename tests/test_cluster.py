@@ -16,9 +16,9 @@ import pytest
 from conftest import COMPARE_SMOOTHING
 
 import msfd_jax as m
-from msfd_jax import _cluster
-from msfd_jax._store import open_store
-from msfd_jax._sweep import INPUTS, OUTPUTS, SweepTable, _numerics, sweep
+from msfd_jax._sweeps import cluster as _cluster
+from msfd_jax._sweeps.store import open_store
+from msfd_jax._sweeps.sweep import INPUTS, OUTPUTS, SweepTable, _numerics, sweep
 from msfd_jax.cli import main
 
 pytest.importorskip("distributed")

@@ -6,7 +6,7 @@ import pytest
 from conftest import SMALL_MESH
 
 import msfd_jax as m
-from msfd_jax._results import FAILED
+from msfd_jax._batched.results import FAILED
 
 # 8 ring segments: the smallest ring mesh on which collapse contacts are valid at R/h_r = 10
 # (node spacing 0.196 R below twice the thickness 0.2 R; 6 segments are refused).
@@ -95,8 +95,9 @@ def test_collapse_forces_equal_the_autodiff_pullback():
     import jax
     import jax.numpy as jnp
 
-    from msfd_jax import _dynamics, _engine
-    from msfd_jax._flat import flatten
+    from msfd_jax._batched import engine as _engine
+    from msfd_jax._batched.flat import flatten
+    from msfd_jax._reference import dynamics as _dynamics
 
     scene = m.ring_on_beam(m.CollisionParams(), ON)
     ring, beam = scene.chains
@@ -109,7 +110,7 @@ def test_collapse_forces_equal_the_autodiff_pullback():
     sets = tuple(jnp.zeros_like(k.stiffness) for k in scene.contacts)
     old = _dynamics.respond(scene, xs, rot, strain, sets)
     flat, x = flatten(scene), jnp.concatenate(xs)[..., None]
-    new = _engine.respond(
+    new = _engine.batch_response(
         flat, x, jnp.concatenate(rot)[:, None], jnp.concatenate(strain)[:, None],
         tuple(s[..., None] for s in sets),
     )  # fmt: skip

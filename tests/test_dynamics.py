@@ -9,7 +9,7 @@ import pytest
 from conftest import COMPARE_SMOOTHING, SHORT, SMALL_MESH
 
 import msfd_jax as m
-from msfd_jax._chain import lumped_masses
+from msfd_jax._model.chain import lumped_masses
 
 
 def test_free_flying_ring_conserves_momentum():

@@ -1,6 +1,6 @@
 """The batched core (issue 11): closed-form forces, slots, and batched forward-mode derivatives.
 
-The core's forces are Eq. (10) in closed form (`_engine.respond`); they must equal autodiff:
+The core's forces are Eq. (10) in closed form (`engine.batch_response`); they must equal autodiff:
 the VJP of the kinematics in `_dynamics.respond` and minus the gradient of the elastic energy.
 A batch of N collisions must give what N single runs give (`test_sweep.py` checks the sweep's
 slot refill against single runs); here a collision's result must not depend on its slot.
@@ -14,10 +14,11 @@ import pytest
 from conftest import SMALL_MESH
 
 import msfd_jax as m
-from msfd_jax import _dynamics, _engine
-from msfd_jax._flat import flatten
-from msfd_jax._queue import solve_batch
-from msfd_jax._sweep import step_bound
+from msfd_jax._batched import engine as _engine
+from msfd_jax._batched.flat import flatten
+from msfd_jax._reference import dynamics as _dynamics
+from msfd_jax._sweeps.queue import solve_batch
+from msfd_jax._sweeps.sweep import step_bound
 
 
 def _scenes():
@@ -53,7 +54,7 @@ def _both(scene, xs, plastic_scale=0.0):
     sets = tuple(jnp.zeros_like(k.stiffness) for k in scene.contacts)
     old = _dynamics.respond(scene, xs, rot, strain, sets)
     x = jnp.concatenate(xs)[..., None]
-    new = _engine.respond(
+    new = _engine.batch_response(
         flat, x, jnp.concatenate(rot)[:, None], jnp.concatenate(strain)[:, None],
         tuple(s[..., None] for s in sets),
     )  # fmt: skip
@@ -101,7 +102,7 @@ def test_closed_form_forces_are_minus_the_elastic_energy_gradient(name):
     def energy(x):
         return _engine.elastic_energy(flat, x, *zeros)[0]
 
-    r = _engine.respond(flat, x0, *zeros)
+    r = _engine.batch_response(flat, x0, *zeros)
     assert float(jnp.sum(r.bending) + jnp.sum(r.axial) + jnp.sum(r.contact)) == 0.0  # elastic
     scale = float(jnp.max(jnp.abs(r.forces)))
     assert scale > 0
@@ -179,7 +180,7 @@ def test_batched_forward_mode_gives_every_collision_its_own_derivative():
 
 
 def test_vectorisable_atan2_is_within_two_ulp_of_libm():
-    from msfd_jax._safe import atan2
+    from msfd_jax._model.safe import atan2
 
     rng = np.random.default_rng(0)
     y = rng.normal(size=200_000) * 10.0 ** rng.uniform(-8, 3, 200_000)
@@ -197,7 +198,7 @@ def test_atan2_derivative_is_the_exact_one():
     (libm's derivative), over many magnitudes, and finite (0) at 0. The bound is rounding's:
     a few ulp of the terms (|x dy| + |y dx|) / r^2, since x dy - y dx can cancel (the two
     group the products differently: 1.5e-14 relative was seen at such a point)."""
-    from msfd_jax._safe import atan2
+    from msfd_jax._model.safe import atan2
 
     rng = np.random.default_rng(1)
     y = jnp.asarray(rng.normal(size=2000) * 10.0 ** rng.uniform(-6, 3, 2000))

@@ -1,4 +1,4 @@
-"""Serialized programs (`msfd_jax._export`): stored, loaded, equal to the traced program.
+"""Serialized programs (`msfd_jax._runtime.export`): stored, loaded, equal to the traced program.
 
 The store is process-global state, so every test switches it on in a temporary directory
 and off again (`store` fixture). The solver's program is compiled once here (about 13 s of
@@ -17,8 +17,8 @@ import pytest
 from conftest import SMALL_MESH
 
 import msfd_jax as m
-from msfd_jax import _export
-from msfd_jax._dynamics import critical_step
+from msfd_jax._model.state import critical_step
+from msfd_jax._runtime import export as _export
 
 _critical = eqx.filter_jit(critical_step)
 
@@ -55,8 +55,8 @@ import numpy as np
 jax.config.update("jax_enable_x64", True)
 equinox._errors.EQX_ON_ERROR = "nan"  # as the CLI, before anything is traced
 import msfd_jax as m
-from msfd_jax import _export
-from msfd_jax._simulate import _simulate, prepare
+from msfd_jax._runtime import export as _export
+from msfd_jax._batched.simulate import _simulate, prepare
 
 store = Path(sys.argv[1])
 _export.enable(store)
@@ -154,8 +154,8 @@ import jax
 jax.config.update("jax_enable_x64", True)
 equinox._errors.EQX_ON_ERROR = "nan"  # as the CLI, before anything is traced
 import msfd_jax as m
-from msfd_jax import _export
-from msfd_jax._sweep import SWEEP_SETTINGS
+from msfd_jax._runtime import export as _export
+from msfd_jax._sweeps.sweep import SWEEP_SETTINGS
 
 if sys.argv[1] != "-":
     _export.enable(Path(sys.argv[1]))

@@ -5,7 +5,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import msfd_jax as m
-from msfd_jax._chain import lumped_masses
+from msfd_jax._model.chain import lumped_masses
 
 
 def _free_chain(n=7, seed=0):

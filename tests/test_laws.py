@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import msfd_jax as m
-from msfd_jax._laws import ramp_energy
+from msfd_jax._model.laws import ramp_energy
 
 K, FY = 50.0, 2.0  # stiffness and yield value; yield strain q_y = 0.04
 QY = FY / K

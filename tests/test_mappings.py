@@ -5,7 +5,7 @@ import jax.numpy as jnp
 import pytest
 
 import msfd_jax as m
-from msfd_jax import _mappings
+from msfd_jax._runtime import mappings as _mappings
 
 
 def test_usage_counts_this_process_mappings():

@@ -26,8 +26,8 @@ from hypothesis import settings as hsettings
 from hypothesis import strategies as st
 
 import msfd_jax as m
-from msfd_jax._params import _RANGES
-from msfd_jax._results import FAILED, RESULTS
+from msfd_jax._batched.results import FAILED, RESULTS
+from msfd_jax._model.params import _RANGES
 
 # One compiled program for every run here: static fields fixed, numbers dynamic.
 RUN = m.Settings(t_max=0.1, history_points=11, shape_times=(), max_steps=256)

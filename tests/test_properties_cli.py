@@ -33,7 +33,7 @@ from hypothesis import strategies as st
 from test_properties import RUN
 
 import msfd_jax as m
-from msfd_jax import _sweep
+from msfd_jax._sweeps import sweep as _sweep
 from msfd_jax.cli import common, main
 from msfd_jax.cli import sweep as cli_sweep
 

@@ -21,7 +21,9 @@ import pytest
 from conftest import SMALL_MESH
 
 import msfd_jax as m
-from msfd_jax import _engine, _pruning, _sweep
+from msfd_jax._batched import engine as _engine
+from msfd_jax._batched import pruning as _pruning
+from msfd_jax._sweeps import sweep as _sweep
 
 
 @pytest.fixture
@@ -120,7 +122,7 @@ def test_a_pruned_single_run_and_its_histories_equal_the_dense_one(dense):
 def in_contact():
     """A batch of 8 collisions (h_b/h_r 0.5-4, free and held) on the small mesh (7 ring x 9
     beam contact nodes) 1200 substeps into contact: (flat, y) with permanent sets grown."""
-    from msfd_jax import _queue
+    from msfd_jax._sweeps import queue as _queue
 
     base = {
         f.name: getattr(m.CollisionParams(), f.name) for f in dataclasses.fields(m.CollisionParams)
@@ -224,7 +226,7 @@ def test_contact_loop_is_checked():
 def test_a_sweep_on_an_accelerator_takes_the_dense_loop(monkeypatch):
     """On a GPU a sweep's default contact loop is the dense one (no conditional), whatever
     the mesh; a loop asked for is kept; on a CPU the blocks and listed loops stay."""
-    from msfd_jax import _simulate
+    from msfd_jax._batched import simulate as _simulate
 
     paper, finer = m.Mesh(), m.Mesh(ring_segments=60, beam_contact_segments=80)
     assert _simulate.platform() == "cpu"
@@ -239,7 +241,7 @@ def test_a_sweep_on_an_accelerator_takes_the_dense_loop(monkeypatch):
 def test_forward_mode_through_the_pruned_contact_equals_the_dense_one(dense, loop):
     """jvp of 400 substeps of a batch in contact (blocks skipped and evaluated) along x, with
     a conditional per block and with the listed loop (forward mode works through both)."""
-    from msfd_jax import _queue
+    from msfd_jax._sweeps import queue as _queue
 
     base = {
         f.name: getattr(m.CollisionParams(), f.name) for f in dataclasses.fields(m.CollisionParams)

@@ -28,8 +28,8 @@ from pathlib import Path
 import pytest
 
 import msfd_jax as m
-from msfd_jax._attempts import first_attempts
-from msfd_jax._results import BALANCE_TOLERANCE
+from msfd_jax._batched.results import BALANCE_TOLERANCE
+from msfd_jax._collision.attempts import first_attempts
 from msfd_jax.studies.scripts.regression_baseline import FRACTIONS, SINGLES, TOLERANCE
 
 DATA = Path(__file__).parent / "data"

@@ -11,17 +11,17 @@ import pytest
 from conftest import SMALL_MESH
 
 import msfd_jax as m
-from msfd_jax import _attempts
-from msfd_jax._cap import (
+from msfd_jax._batched.results import BALANCE_TOLERANCE
+from msfd_jax._collision import attempts as _attempts
+from msfd_jax._model.cap import (
     T_MAX_CEILING,
     T_MAX_FLOOR,
     concrete_time_cap,
     stopping_time,
     time_cap,
 )
-from msfd_jax._results import BALANCE_TOLERANCE
-from msfd_jax._safe import unwrap_near
-from msfd_jax._sweep import SWEEP_SETTINGS
+from msfd_jax._model.safe import unwrap_near
+from msfd_jax._sweeps.sweep import SWEEP_SETTINGS
 
 # a heavy, slow impact on a free beam: hit the former fixed cap tau = 10 with dissipation
 # still going (paper mesh: reliability_before.json of commit 4a9f7f2, seed 0), settles later

@@ -10,7 +10,7 @@ import pytest
 from conftest import COMPARE_SMOOTHING, SMALL_MESH
 
 import msfd_jax as m
-from msfd_jax._si import DISSIPATION_KEYS
+from msfd_jax._model.si import DISSIPATION_KEYS
 from msfd_jax.cli import main
 
 SETTINGS = m.Settings(t_max=1.5, history_points=61, shape_times=(0.5,))
@@ -223,7 +223,7 @@ def test_si_figures_and_axes_arguments(collision, tmp_path):
     from matplotlib.figure import Figure
 
     from msfd_jax._plot import plot_collision, plot_energies, plot_partition, plot_shapes
-    from msfd_jax._sweep import SweepTable
+    from msfd_jax._sweeps.sweep import SweepTable
 
     fig = plot_collision(collision, tmp_path / "si.png")
     labels = {ax.get_xlabel() for ax in fig.axes} | {ax.get_ylabel() for ax in fig.axes}
@@ -329,7 +329,7 @@ def test_python_sweep_takes_si_inputs_and_gives_si_columns():
         assert 0 < table["mean_contact_force_N"][i] <= table["peak_contact_force_N"][i]
     with pytest.raises(ValueError, match="cannot be combined with SI inputs"):
         m.sweep({"impact_speed": [20.0], "thickness_ratio": [2.0]}, SMALL_MESH, settings)
-    from msfd_jax._si import units_of
+    from msfd_jax._model.si import units_of
 
     assert units_of("peak_beam_deflection_m") == "m" and units_of("si_impact_speed") == "m/s"
     assert units_of("peak_block_deceleration_m_s2") == "m/s^2" and units_of("k0") is None

@@ -16,9 +16,10 @@ import pytest
 from conftest import COMPARE_SMOOTHING, SHORT, SMALL_MESH
 
 import msfd_jax as m
-from msfd_jax import _shard, _sweep
-from msfd_jax._outputs import FRACTION_KEYS
-from msfd_jax._sweep import INPUTS, OUTPUTS, SWEEP_SETTINGS, SweepTable, collisions, sweep
+from msfd_jax._collision.run import FRACTION_KEYS
+from msfd_jax._sweeps import shard as _shard
+from msfd_jax._sweeps import sweep as _sweep
+from msfd_jax._sweeps.sweep import INPUTS, OUTPUTS, SWEEP_SETTINGS, SweepTable, collisions, sweep
 from msfd_jax.cli import main
 from msfd_jax.cli import sweep as sweep_command
 
@@ -241,7 +242,7 @@ def test_sharded_sweep_over_two_host_devices_equals_vmap(table, tmp_path):
 
 
 def test_line_progress_prints_each_line_and_counts_steps(capsys):
-    from msfd_jax._progress import LineProgress
+    from msfd_jax._runtime.progress import LineProgress
 
     bar = LineProgress(2, "tune", unit=" iterations")
     bar("tune: it   1  first line")
@@ -321,7 +322,7 @@ def test_the_scalar_tail_gives_the_same_rows(one_worker, monkeypatch):
     """The tail's last collisions move to 4, 2 and 1 slots (`_queue.TAIL_SLOTS`): their rows
     equal those of a tail kept at 16 slots, every column (a collision's arithmetic does not
     depend on the slot count)."""
-    from msfd_jax import _queue
+    from msfd_jax._sweeps import queue as _queue
 
     assert _queue._tail_size(3, 16) == 4 and _queue._tail_size(1, 4) == 1
     assert _queue._tail_size(5, 16) == 16 and _queue._tail_size(9, 64) == 16
@@ -334,7 +335,7 @@ def test_the_scalar_tail_gives_the_same_rows(one_worker, monkeypatch):
 
 def test_the_default_slots_follow_the_platform(monkeypatch):
     """A sweep not told its slots takes 32 per worker on a CPU and 8192 on a GPU."""
-    from msfd_jax import _queue
+    from msfd_jax._sweeps import queue as _queue
 
     assert _queue.default_slots() == _queue.DEFAULT_SLOTS == 32
     monkeypatch.setattr(_queue, "platform", lambda: "gpu")
@@ -345,7 +346,7 @@ def test_the_gpu_tail_rule_gives_the_same_rows(one_worker, monkeypatch):
     """On a GPU the tail moves to fewer slots in steps of four down to `GPU_TAIL_FLOOR`
     (`_queue._tail_size_gpu`); run here through that rule (the platform and the floor
     patched), the rows equal the CPU rule's, every column."""
-    from msfd_jax import _queue
+    from msfd_jax._sweeps import queue as _queue
 
     floor = _queue.GPU_TAIL_FLOOR
     assert _queue._tail_size_gpu(8192, 8192) == 8192  # all running
@@ -364,7 +365,7 @@ def test_the_gpu_tail_rule_gives_the_same_rows(one_worker, monkeypatch):
 def test_a_retry_runs_in_the_queue_as_it_would_alone(monkeypatch):
     """A row rerun at half the step (issue 12) goes back into the running queue (no pass of
     its own after the sweep) and gives exactly the row of a sweep at that step."""
-    from msfd_jax import _attempts
+    from msfd_jax._collision import attempts as _attempts
 
     lean = dataclasses.replace(SWEEP_SETTINGS, max_steps=2**14)
     rows = [{}, {"thickness_ratio": 1.5}, {"thickness_ratio": 3.0}]

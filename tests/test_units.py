@@ -36,8 +36,8 @@ import numpy as np
 import pytest
 
 import msfd_jax as m
-import msfd_jax._contact as _contact_module
-import msfd_jax._scene as _scene_module
+import msfd_jax._model.contact as _contact_module
+import msfd_jax._model.scene as _scene_module
 
 RTOL = 1e-12
 

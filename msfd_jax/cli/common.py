@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 
 import msfd_jax as m
-from msfd_jax import _export
-from msfd_jax._cap import T_MAX_FLOOR
-from msfd_jax._progress import LineProgress  # noqa: F401 (for optimise: msfd tune)
-from msfd_jax._provenance import dumps  # noqa: F401 (strict JSON for every --json output)
+from msfd_jax._collision.provenance import dumps  # noqa: F401 (strict JSON for every --json output)
+from msfd_jax._model.cap import T_MAX_FLOOR
+from msfd_jax._runtime import export as _export
+from msfd_jax._runtime.progress import LineProgress  # noqa: F401 (for optimise: msfd tune)
 
 EXIT_OK, EXIT_USAGE, EXIT_SOLVE = 0, 2, 3
 

@@ -16,10 +16,10 @@ from typing import Any
 
 import msfd_jax as m
 
-from .. import _export
-from .._params import _check_scalar, _check_value
-from .._provenance import dumps, now, settings_from_json, versions
-from .._si import table_lines
+from .._collision.provenance import dumps, now, settings_from_json, versions
+from .._model.params import _check_scalar, _check_value
+from .._model.si import table_lines
+from .._runtime import export as _export
 from .common import (
     EXIT_OK,
     EXIT_SOLVE,

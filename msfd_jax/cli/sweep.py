@@ -22,11 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import _cluster
-from .._outputs import FRACTION_KEYS
-from .._params import CollisionParams
-from .._queue import GPU_DEFAULT_SLOTS
-from .._sweep import DEFAULT_CHUNK, INPUTS, SweepTable, sweep
+from .._collision.run import FRACTION_KEYS
+from .._model.params import CollisionParams
+from .._sweeps import cluster as _cluster
+from .._sweeps.queue import GPU_DEFAULT_SLOTS
+from .._sweeps.sweep import DEFAULT_CHUNK, INPUTS, SweepTable, sweep
 from . import common, sweep_si
 
 _CONSTRAINT = {"held": [1.0], "free": [0.0], "both": [0.0, 1.0]}

@@ -4,7 +4,7 @@ SI grids take the ``msfd run`` SI options (``--beam-thickness 0.1,0.15``, ``--im
 20:30:3``; missing values are `PAPER_SI`'s); their Cartesian product (last option fastest) is
 converted row by row with `from_si` and swept as a list. The table then gains the SI inputs
 (``si_<name>``), the unit scales (``scale_*``) and the design quantities of the whole structure
-(`msfd_jax._si.si_columns`: energies in J, the engine's peaks in SI, ``duration_s``); the
+(`msfd_jax._model.si.si_columns`: energies in J, the engine's peaks in SI, ``duration_s``); the
 10 ms deceleration and the final positions of ``msfd run``'s ``si`` object need a run's
 histories and final state. NetCDF variables carry their SI ``units`` attribute.
 
@@ -24,8 +24,8 @@ import numpy as np
 
 import msfd_jax as m
 
-from .._provenance import mesh_json, now, settings_json, versions
-from .._si import si_columns, units_of
+from .._collision.provenance import mesh_json, now, settings_json, versions
+from .._model.si import si_columns, units_of
 from . import common
 
 _CONSTRAINT = {"held": [True], "free": [False], "both": [False, True]}

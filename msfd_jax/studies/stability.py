@@ -31,12 +31,12 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from .._attempts import MAX_RETRIES, smaller_step, step_is_cause
-from .._outputs import diagnose
-from .._params import CollisionParams, Mesh
-from .._results import RESULTS
-from .._scene import Scene, ring_on_beam
-from .._simulate import Settings, simulate
+from .._batched.results import RESULTS
+from .._batched.simulate import Settings, simulate
+from .._collision.attempts import MAX_RETRIES, smaller_step, step_is_cause
+from .._collision.run import diagnose
+from .._model.params import CollisionParams, Mesh
+from .._model.scene import Scene, ring_on_beam
 
 PAPER_MESH = dict(ring_segments=15, beam_contact_segments=20, beam_outer_segments=5)
 QUICK_MESH = dict(ring_segments=6, beam_contact_segments=8, beam_outer_segments=2)

@@ -12,11 +12,12 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from ..._dynamics import State, verlet_step
-from ..._laws import ramp, ramp_energy
-from ..._outputs import FRACTION_KEYS
-from ..._scene import Scene
-from ..._solver import VelocityVerlet
+from ..._collision.run import FRACTION_KEYS
+from ..._model.laws import ramp, ramp_energy
+from ..._model.scene import Scene
+from ..._model.state import State
+from ..._reference.dynamics import verlet_step
+from ..._reference.verlet import VelocityVerlet
 
 DISSIPATED = FRACTION_KEYS[:5]  # beam bending/axial, ring bending/axial, contact
 LUMPED_KEYS = (*DISSIPATED, "kinetic+elastic")
@@ -97,7 +98,7 @@ def _overstress_rate(force, yield_force, stiffness, eta):
 
 def _viscoplastic_response(scene: Scene, y: Viscoplastic, eta):
     """Generalized forces (no clipping: the overstress relaxes at rate 1/eta), flow rates."""
-    from ..._dynamics import deformations
+    from ..._model.state import deformations
 
     (q_chains, q_contacts), pullback = jax.vjp(lambda x: deformations(scene, x), y.x)
     g_chains, rot_rates, strain_rates, bend, axial, elastic = [], [], [], [], [], 0.0

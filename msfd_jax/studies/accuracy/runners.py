@@ -18,12 +18,12 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from ..._dynamics import initial_state
-from ..._params import CollisionParams, Mesh
-from ..._results import RESULTS
-from ..._scene import Scene
-from ..._simulate import Settings, critical_step, simulate
-from ..._solver import VelocityVerlet, rate_form
+from ..._batched.results import RESULTS
+from ..._batched.simulate import Settings, critical_step, simulate
+from ..._model.params import CollisionParams, Mesh
+from ..._model.scene import Scene
+from ..._reference.dynamics import initial_state
+from ..._reference.verlet import VelocityVerlet, rate_form
 from .methods import (
     YoshidaVerlet,
     lumped,

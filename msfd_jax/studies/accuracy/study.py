@@ -16,10 +16,10 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
-from ..._params import Mesh
-from ..._results import RESULTS
-from ..._scene import Scene, ring_on_beam
-from ..._simulate import Settings, critical_step, simulate
+from ..._batched.results import RESULTS
+from ..._batched.simulate import Settings, critical_step, simulate
+from ..._model.params import Mesh
+from ..._model.scene import Scene, ring_on_beam
 from .methods import lumped, max_error
 from .runners import (
     CASES,

@@ -15,8 +15,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..._progress import LineProgress
-from ..._provenance import dumps
+from ..._collision.provenance import dumps
+from ..._runtime.progress import LineProgress
 from ._common import Finding, Reproduction
 
 FIGURES: dict[str, tuple[str, str, str]] = {

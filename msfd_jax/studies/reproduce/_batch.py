@@ -20,12 +20,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..._params import CollisionParams, Mesh, validate
-from ..._provenance import json_ready
-from ..._results import FAILED, RESULTS
-from ..._scene import ring_on_beam
-from ..._simulate import Settings, simulate
-from ..._sweep import SweepTable, collisions, step_bound, sweep
+from ..._batched.results import FAILED, RESULTS
+from ..._batched.simulate import Settings, simulate
+from ..._collision.provenance import json_ready
+from ..._model.params import CollisionParams, Mesh, validate
+from ..._model.scene import ring_on_beam
+from ..._sweeps.sweep import SweepTable, collisions, step_bound, sweep
 
 RING, BEAM = 0, 1  # chain order of ring_on_beam
 THICKEST = 5.0  # the largest h_b/h_r of the reproduction (Fig. 10): the smallest stable step
@@ -44,7 +44,7 @@ def max_steps(quick: bool, settings: Settings = Settings()) -> int:
     """One step bound per mesh and settings (`step_bound` of the thickest beam)."""
     key = mesh(quick)
     if key not in _CRITICAL:
-        from ..._dynamics import critical_step
+        from ..._model.state import critical_step
 
         scene = ring_on_beam(CollisionParams(thickness_ratio=THICKEST), key)
         _CRITICAL[key] = float(eqx.filter_jit(critical_step)(scene))

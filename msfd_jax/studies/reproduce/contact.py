@@ -93,7 +93,7 @@ def segment_frequencies(quick: bool) -> dict[str, float]:
     Bending: a bar of mass l turning on rotational springs EI / l: sqrt(EI) / l^2, with
     EI = (E/Y)(h_r/R) / 3 in units of M_pr R. Order-of-magnitude estimates (Fig. 15b).
     """
-    from ..._params import CollisionParams
+    from ..._model.params import CollisionParams
 
     p = CollisionParams()
     beta, slender = float(p.modulus_ratio), float(p.slenderness)
@@ -113,8 +113,8 @@ def two_mass_first_impact(row: dict, quick: bool) -> dict[str, float]:
     of the two nodal masses; the pair yields when the peak passes f_y, i.e. above
     v0 = f_y / sqrt(k mu). Constants read from the scene (audited in tests/test_units.py).
     """
-    from ..._params import CollisionParams
-    from ..._scene import ring_on_beam
+    from ..._model.params import CollisionParams
+    from ..._model.scene import ring_on_beam
 
     params = CollisionParams(**row)
     scene = ring_on_beam(params, b.mesh(quick))

@@ -37,7 +37,7 @@ import jax
 import numpy as np
 
 import msfd_jax as m
-from msfd_jax._attempts import first_attempts
+from msfd_jax._collision.attempts import first_attempts
 
 ROOT = Path(__file__).resolve().parents[3]
 OUT = ROOT / "tests" / "data" / "regression_baseline.json"

@@ -1,0 +1,70 @@
+"""The batched core's forces of the collapse contacts (issue 12, `_collapse`), batch last.
+
+Kept apart from `engine.batch_response`'s loop (which handles the paper's contact sets) so that a
+scene without collapse contacts runs exactly the code it ran before; `batch_response` and
+`pair_forces` hand the two new layouts to `collapse_response` / `collapse_pair_force`.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+
+from .._model.collapse import pair_mask
+from .._model.laws import contact_energy, contact_spring
+from .._model.safe import safe_norm
+from .flat import FacePlaneLayout, FlatScene, SelfPairLayout
+
+
+def _approach(flat: FlatScene, p, x, gap):
+    """(approach, pair geometry) of a collapse set at x: (n, n, B) or (n_a, B)."""
+    if isinstance(p, SelfPairLayout):
+        xs = x[p.a : p.a + p.n]
+        d = xs[:, None] - xs[None]  # (n, n, 2, B)
+        dist = safe_norm(d, axis=2)
+        mask = pair_mask(p.n, p.separation)[:, :, None]
+        # pairs outside the mask get approach -gap: never closed (and no NaN gradient)
+        return jnp.where(mask, gap[None, None] - dist, -gap[None, None]), (d, dist)
+    y_face = x[p.anchor, 1][None]  # (1, B)
+    return y_face + gap[None] - x[p.a : p.a + p.n_a, 1], None
+
+
+def _smoothing(flat: FlatScene, delta):
+    return flat.contact_smoothing[(None,) * (delta.ndim - 1)]
+
+
+def collapse_pair_force(flat: FlatScene, p, x, gap, k, fy, permanent_set):
+    """Pair forces (>= 0) of one collapse set with the permanent set after the return map."""
+    delta, _ = _approach(flat, p, x, gap)
+    f, _, _ = contact_spring(delta, permanent_set, k, fy, _smoothing(flat, delta))
+    return f
+
+
+def collapse_energy(flat: FlatScene, p, x, gap, k, permanent_set):
+    """Elastic energy (B,) of one collapse set at x with its permanent set (after the map)."""
+    delta, _ = _approach(flat, p, x, gap)
+    axes = tuple(range(delta.ndim - 1))
+    return jnp.sum(contact_energy(delta, permanent_set, k, _smoothing(flat, delta)), axis=axes)
+
+
+def collapse_response(flat: FlatScene, p, x, gap, k, fy, permanent_set):
+    """One collapse set at x: (nodal forces (N, 2, B), new set, pair forces, dissipated (B,),
+    elastic energy (B,)). Forces are -dU/dx of the contact energy (central, equal and opposite).
+    """
+    delta, geometry = _approach(flat, p, x, gap)
+    cs = _smoothing(flat, delta)
+    f, new_set, dc = contact_spring(delta, permanent_set, k, fy, cs)
+    axes = tuple(range(f.ndim - 1))
+    elastic = jnp.sum(contact_energy(delta, new_set, k, cs), axis=axes)
+    n_nodes = x.shape[0]
+    if isinstance(p, SelfPairLayout):
+        d, dist = geometry
+        safe = jnp.where(dist > 0, dist, 1.0)
+        along = jnp.where(dist > 0, f / safe, 0.0)[:, :, None] * d  # pushes i away from j
+        fa = jnp.sum(along, axis=1) - jnp.sum(along, axis=0)
+        force = jnp.pad(fa, ((p.a, n_nodes - p.a - p.n), (0, 0), (0, 0)))
+    else:
+        assert isinstance(p, FacePlaneLayout)
+        fy_nodes = jnp.pad(f, ((p.a, n_nodes - p.a - p.n_a), (0, 0)))  # +f on each node
+        fy_nodes = fy_nodes.at[p.anchor].add(-jnp.sum(f, axis=0))  # -sum f on the block
+        force = jnp.stack([jnp.zeros_like(fy_nodes), fy_nodes], axis=1)
+    return force, new_set, f, jnp.sum(dc, axis=axes), elastic

@@ -1,0 +1,482 @@
+"""The sweep's engine: B slots on the batched core, finished slots refilled from a queue.
+
+No batch waits for its slowest collision: the slots advance together for a segment of
+`segment` diffrax steps (one compiled program, `_segment`), then every slot whose collision
+has stopped hands in its outputs and takes the next collision of the queue (`_refill`, also
+compiled: the new collisions' scenes, clocks and initial states are built on the device and
+merged into the freed slots). The host loop runs once per segment, never per time step. A
+collision's steps, stopping rule and results do not depend on which slot, batch or segment
+it ran in (tests/test_engine.py: a batch of N equals N single runs).
+"""
+
+from __future__ import annotations
+
+import collections
+import os
+import threading
+import time
+from collections.abc import Callable
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array
+
+from .._batched import peaks as _peaks
+from .._batched.engine import BatchState, batch_initial_state, kinetic, make_clock, pair_forces
+from .._batched.flat import FlatScene, batch_scenes
+from .._batched.simulate import Settings, Solution, platform
+from .._batched.solver import solve
+from .._collision.attempts import RETRY_FACTOR
+from .._model.cap import time_cap
+from .._model.params import CollisionParams, Mesh
+from .._model.scene import _ring_on_beam, smoothed
+from .._model.state import State
+from .._runtime import export as _export
+
+DEFAULT_SLOTS = 32  # the fastest of 16, 32, 64 per collision-step (benchmarks/slot_cost.py)
+# On an accelerator: 0.0287 us per collision-step at 8192 slots against 0.0639 at 1024 and
+# 0.0262 at 65536 on an H200 (benchmarks/results/gpu.md); 8192 keeps a tail of long
+# collisions on fewer slots sooner and the memory small.
+GPU_DEFAULT_SLOTS = 8192
+MIN_SLOTS = 16
+# A tail of at most TAIL_SLOTS running collisions moves to that many slots: below the vector
+# width XLA:CPU runs scalar code whose cost grows with the slots (benchmarks/slot_cost.py: a
+# substep of 1, 2, 4, 8, 16 slots costs 6.7, 12.9, 25.0, 43.8, 44.4 us on the paper mesh),
+# and a collision's arithmetic is the same bit for bit (tests/test_sweep.py).
+TAIL_SLOTS = 4
+DEFAULT_SEGMENT = 64  # diffrax steps (x substeps Verlet steps) between refills
+
+
+def _scenes(params: CollisionParams, mesh: Mesh, smoothing) -> tuple[FlatScene, Array | None]:
+    """The batch's flat scene, and each collision's derived cap (None: no cap derived).
+
+    `smoothing`: (contact width, yield width, (smooth contact?, smooth yield?) static)."""
+    contact, yield_, smooth = smoothing
+    scenes = jax.vmap(lambda p: _ring_on_beam(p, mesh, contact, yield_, smooth))(params)
+    return batch_scenes(scenes), jax.vmap(time_cap)(scenes)
+
+
+def with_flags(smoothing) -> tuple:
+    """(contact width, yield width) as the queue's smoothing, with the static flags that let
+    the core compile the sharp laws alone where a width is known to be zero."""
+    contact, yield_ = smoothing
+    flags = (smoothed(contact), smoothed(yield_))
+    return (jnp.asarray(contact, float), jnp.asarray(yield_, float), flags)
+
+
+def _dt(dt_crit, settings: Settings):
+    return dt_crit * settings.safety if settings.dt is None else jnp.full_like(dt_crit, settings.dt)
+
+
+@eqx.filter_jit
+def _start(params, dt_crit, mesh, smoothing, settings, max_steps, step_factor=None):
+    """The slots' scenes, clocks and initial states. `step_factor` (B,), when given, scales
+    each collision's step (0.5 ** attempt for a retry: exact, so a collision solved again in
+    the queue takes the steps it would take alone with the step halved); `max_steps` is a
+    number or one per collision."""
+    flat, cap = _scenes(params, mesh, smoothing)
+    cap = cap if settings.t_max is None else None
+    dt = _dt(dt_crit, settings)
+    if step_factor is not None:
+        dt = dt * step_factor
+    clock = make_clock(flat, dt, settings, max_steps, cap)
+    return flat, clock, batch_initial_state(flat)
+
+
+@eqx.filter_jit
+def _segment(flat, clock, y, settings, segment: int):
+    sol = solve(flat, clock, y, settings, max_steps=segment, t1=float(segment), dt0=1.0)
+    return jax.tree_util.tree_map(lambda a: a[-1], sol.ys)
+
+
+@eqx.filter_jit
+def _refill(flat, clock, y, take, params, dt_crit, mesh, smoothing, settings, max_steps, factor):
+    """Slots with `take` (B,) true get the new collisions `params` (B rows; others unused)."""
+    new = _start(params, dt_crit, mesh, smoothing, settings, max_steps, factor)
+
+    def merge(old, fresh):
+        mask = jnp.reshape(take, (1,) * (old.ndim - 1) + take.shape)
+        return jnp.where(mask, fresh, old)
+
+    return jax.tree_util.tree_map(merge, (flat, clock, y), new)
+
+
+@eqx.filter_jit
+def _report(flat: FlatScene, clock, y: BatchState):
+    """Per slot: the numbers a sweep row needs and the chain-wise final state (batch first)."""
+    kin = kinetic(flat, y.v)
+    block = jnp.zeros_like(y.t)
+    for i, c in enumerate(flat.chains):
+        last = c.node + c.n_nodes - 1
+        block = block + 0.5 * flat.attached_mass[i] * jnp.sum(y.v[last] ** 2, axis=0)
+    forces = pair_forces(flat, y.x, y.permanent_set)
+    return jax.tree_util.tree_map(lambda a: jnp.moveaxis(a, -1, 0), (y, kin, block, forces))
+
+
+def _solution(flat, y, kin, block, forces, dt, dt_crit, k0, substeps) -> Solution:
+    """A batch-first `Solution` without histories (what `fractions` and `diagnose` read)."""
+
+    def nodes(a):
+        return tuple(a[:, c.node : c.node + c.n_nodes] for c in flat.chains)
+
+    final = State(
+        nodes(y.x), nodes(y.v), nodes(y.a),
+        tuple(y.plastic_rotation[:, c.joint : c.joint + c.n_joints] for c in flat.chains),
+        tuple(y.plastic_strain[:, c.bar : c.bar + c.n_nodes - 1] for c in flat.chains),
+        y.permanent_set, forces, y.bending, y.axial, y.contact, y.elastic,
+        y.reaction, y.drive_work, y.last_dissipation, y.dissipation_mark, y.last_contact,
+    )  # fmt: skip
+    return Solution(
+        result=np.round(y.code).astype(np.int64),
+        t_end=y.t,
+        steps=np.round(y.k * substeps).astype(np.int64),
+        dt=dt,
+        dt_critical=dt_crit,
+        k0=k0,
+        bending=y.bending,
+        axial=y.axial,
+        contact=y.contact,
+        kinetic=kin,
+        kinetic_block=block,
+        elastic=y.elastic,
+        drive_work=y.drive_work,
+        final=final,
+        ts=np.zeros((len(k0), 1)),  # every leaf batch-first (diagnose indexes them)
+        history={},
+        shape_ts=np.zeros((len(k0), 0)),
+        shapes=(),
+        peaks=_peaks.as_dict(y.peaks),
+    )
+
+
+def default_slots() -> int:
+    """Slots per worker when a sweep is not told: `DEFAULT_SLOTS` on a CPU,
+    `GPU_DEFAULT_SLOTS` on an accelerator (the default device's platform)."""
+    return DEFAULT_SLOTS if platform() == "cpu" else GPU_DEFAULT_SLOTS
+
+
+def default_workers() -> int:
+    """Worker threads of an in-process sweep: the cores this process may run on (its CPU
+    affinity: ``taskset -c 1`` gives 1), one on an accelerator (one device serves them all)."""
+    if platform() != "cpu":
+        return 1
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # no affinity on this platform
+        return max(1, os.cpu_count() or 1)
+
+
+def run_queue(
+    params: dict[str, np.ndarray],
+    dt_critical: np.ndarray,
+    mesh: Mesh,
+    settings: Settings,
+    smoothing,
+    max_steps: int | tuple[int, ...],
+    *,
+    slots: int = DEFAULT_SLOTS,
+    segment: int = DEFAULT_SEGMENT,
+    workers: int = 1,
+    on_done: Callable[..., np.ndarray | None],
+    order: np.ndarray | None = None,
+) -> dict:
+    """Run every collision of `params` (columns of CollisionParams fields) through B slots.
+
+    The queue starts in `order` (row positions; default: as given): a sweep puts its longest
+    collisions first. Retries join the queue: `on_done(rows, solution, wall, attempts)` may
+    return a mask of the rows to solve again, and each goes back to the front of the queue
+    with its step halved (attempt a runs at 0.5 ** a times the step, with `max_steps[a]`
+    diffrax steps allowed when `max_steps` is a tuple, one bound per attempt). A retry so
+    runs in a free slot beside the rest of the sweep, not in a pass of its own after it.
+
+    `workers` threads each run their own B slots, all taking collisions from one queue
+    (XLA releases the GIL while a compiled program runs, so W threads use W cores; one
+    compiled program serves them all). `on_done(rows, solution, wall)` receives each group
+    of collisions that stopped in the same segment of one worker: their positions in
+    `params`, a batch-first `Solution` of them (no histories), each one's share of the
+    run time (compile time excluded) and its attempt; calls are serialised. Returns the
+    slot count, the worker count, the number of segments and of compactions (below), the
+    Verlet steps the slots ran in all (`slot_steps`, busy or idle: the sweep's steps over it
+    is the lanes' utilisation), the seconds the workers spent in segment programs in all
+    (`segment_s`; the rest of workers x run time: the hand-over between segments, a worker
+    idle at the end, waits for a tail program's compilation),
+    the compile and run times (run time: wall time of the whole queue, compile excluded).
+
+    The tail: once the queue is empty and at most half of a worker's slots still run (on a
+    GPU: a quarter, `_tail_size_gpu`), their collisions move into a program of fewer slots
+    (the next power of two, down to `TAIL_SLOTS`, on a GPU `GPU_TAIL_FLOOR`; compiled when
+    first needed, its compilation counted as compile time): the tail of a sweep no longer
+    pays for stopped slots. A collision's result does not depend
+    on its slot or the slot count (tests/test_sweep.py).
+    """
+    n = len(dt_critical)
+    workers = max(1, min(int(workers), -(-n // MIN_SLOTS)))  # >= MIN_SLOTS collisions each
+    b = _slot_count(-(-n // workers), slots)
+    smoothing = with_flags(smoothing)
+    bounds = max_steps if isinstance(max_steps, tuple) else (max_steps,)
+    order = range(n) if order is None else np.asarray(order).tolist()
+    queue = collections.deque((row, 0) for row in order)  # (row, attempt)
+    names = list(params)
+    lock = threading.Lock()
+
+    def batch_of(rows, attempts, size=b):
+        rows, attempts = np.asarray(rows), np.asarray(attempts)
+        pad = size - len(rows)
+        rows = np.concatenate([rows, np.full(pad, rows[0])])
+        attempts = np.concatenate([attempts, np.zeros(pad, np.int64)])
+        p = CollisionParams(**{k: jnp.asarray(params[k][rows]) for k in names})
+        steps = np.asarray(bounds, np.float64)[np.minimum(attempts, len(bounds) - 1)]
+        factor = jnp.asarray(RETRY_FACTOR**attempts)  # the step of attempt a: exact powers of 2
+        return p, jnp.asarray(dt_critical[rows]), jnp.asarray(steps), factor
+
+    def take(count):
+        with lock:
+            got = [queue.popleft() for _ in range(min(count, len(queue)))]
+        return [r for r, _ in got], [a for _, a in got]
+
+    on_cpu = platform() == "cpu"
+    compiled: list[float] = []  # seconds of each program size's compilation
+    programs: dict[int, tuple] = {}
+    compiling = threading.Lock()
+
+    def programs_for(size, state):
+        """The segment, report and refill programs for `size` slots, compiled ahead of time
+        (once; a thread that needs a size another is compiling waits for it)."""
+        with compiling:
+            if size not in programs:
+                tick = time.perf_counter()
+                flat, clock, y = state
+                zeros = np.zeros(size, np.int64)
+                p, d, steps, factor = batch_of(zeros, zeros, size)
+                # through the store of serialized programs when it is on (the CLI's): a new
+                # process then loads them instead of tracing diffrax's loop again (`_export`)
+                refill_args = (flat, clock, y, jnp.zeros(size, bool), p, d, mesh, smoothing,
+                               settings, steps, factor)  # fmt: skip
+                programs[size] = (
+                    _export.compile_program(
+                        _segment, flat, clock, y, settings, segment, name="queue_segment"
+                    ),
+                    _export.compile_program(_report, flat, clock, y, name="queue_report"),
+                    _export.compile_program(_refill, *refill_args, name="queue_refill"),
+                )
+                compiled.append(time.perf_counter() - tick)
+            return programs[size]
+
+    tick = time.perf_counter()
+    starts = []
+    for _ in range(workers):
+        first, attempts = take(b)
+        if first:  # (64 collisions, 3 workers of 32 slots: the third has none)
+            p, d, steps, factor = batch_of(first, attempts)
+            state = _export.call(_start, p, d, mesh, smoothing, settings, steps, factor,
+                                 name="queue_start")  # fmt: skip
+            starts.append((first, state))
+    workers = len(starts)
+    flat, clock, y = starts[0][1]
+    # compile the programs ahead of time (once, before the threads start), so that their
+    # compilation is timed apart from the run
+    programs_for(b, (flat, clock, y))
+    compile_s = time.perf_counter() - tick
+    segments, halvings = [0] * workers, [0] * workers
+    slot_steps = [0] * workers  # Verlet steps the lanes ran, busy or idle (utilisation)
+    segment_s = [0.0] * workers  # seconds in the segment programs
+    errors: list[BaseException] = []
+
+    def shrink(state, slot_row, busy, slot_attempt, size):
+        """The running slots moved into a batch of `size` slots."""
+        keep = np.flatnonzero(slot_row >= 0)
+        idx = np.concatenate([keep, np.full(size - len(keep), keep[0])])
+        flat, clock, y = jax.tree_util.tree_map(lambda a: a[..., idx], state)
+        pad = np.arange(size) >= len(keep)
+        y = eqx.tree_at(lambda s: s.done, y, jnp.where(jnp.asarray(pad), 1.0, y.done))
+        rows = np.where(pad, -1, slot_row[idx])
+        return (flat, clock, y), rows, np.where(pad, 0.0, busy[idx]), slot_attempt[idx]
+
+    def drain(w, first, state):
+        flat, clock, y = state
+        slot_row = np.full(b, -1)
+        slot_row[: len(first)] = first
+        slot_attempt = np.zeros(b, np.int64)  # 0 at the start: retries come from refills
+        if len(first) < b:  # idle slots (fewer collisions than slots): stopped from the start
+            idle = jnp.asarray(slot_row < 0)
+            y = eqx.tree_at(lambda s: s.done, y, jnp.where(idle, 1.0, y.done))
+        busy = np.zeros(b)  # run time attributed to each slot's current collision
+        segment_fn, report_fn, refill_fn = programs[b]
+        while (slot_row >= 0).any() and not errors:
+            tick = time.perf_counter()
+            y = segment_fn(flat, clock, y, settings, segment)
+            done = np.asarray(y.done) > 0
+            wall = time.perf_counter() - tick
+            segment_s[w] += wall
+            segments[w] += 1
+            slot_steps[w] += len(slot_row) * segment * settings.substeps
+            active = slot_row >= 0
+            busy[active] += wall / max(int(active.sum()), 1)
+            finished = done & active
+            if not finished.any():
+                continue
+            idx = np.flatnonzero(finished)
+            pick = jax.tree_util.tree_map(
+                lambda a, idx=idx: np.asarray(a)[idx], jax.device_get(report_fn(flat, clock, y))
+            )
+            dt = np.asarray(clock.dt0)[idx] / settings.substeps
+            k0 = np.asarray(clock.k0)[idx]
+            solution = _solution(flat, *pick, dt, dt_critical[slot_row[idx]], k0, settings.substeps)
+            rows, attempts = slot_row[idx], slot_attempt[idx]
+            with lock:
+                again = on_done(rows, solution, busy[idx].copy(), attempts)
+                if again is not None and np.any(again):  # retries first: the longest runs
+                    again = np.asarray(again, bool)
+                    retried = zip(rows[again].tolist(), (attempts[again] + 1).tolist(), strict=True)
+                    queue.extendleft(list(retried)[::-1])
+            busy[idx] = 0.0
+            slot_row[idx] = -1
+            rows, attempts = take(len(idx))
+            if rows:
+                fill = idx[: len(rows)]
+                take_mask = np.zeros(len(slot_row), bool)
+                take_mask[fill] = True
+                new_rows = np.zeros(len(slot_row), np.int64)
+                new_rows[fill] = rows
+                new_attempts = np.zeros(len(slot_row), np.int64)
+                new_attempts[fill] = attempts
+                p, d, steps, factor = batch_of(new_rows, new_attempts, len(slot_row))
+                flat, clock, y = refill_fn(
+                    flat, clock, y, jnp.asarray(take_mask), p, d, mesh, smoothing, settings,
+                    steps, factor,
+                )  # fmt: skip
+                slot_row[fill] = rows
+                slot_attempt[fill] = attempts
+            running, size = int((slot_row >= 0).sum()), len(slot_row)
+            smaller = _tail_size(running, size) if on_cpu else _tail_size_gpu(running, size)
+            if not rows and smaller < size:  # the tail: the queue is empty
+                state = (flat, clock, y)
+                (flat, clock, y), slot_row, busy, slot_attempt = shrink(
+                    state, slot_row, busy, slot_attempt, smaller
+                )
+                halvings[w] += 1
+                segment_fn, report_fn, refill_fn = programs_for(smaller, (flat, clock, y))
+
+    def guarded(w, first, state):
+        try:
+            drain(w, first, state)
+        except BaseException as e:  # re-raised in the caller's thread
+            errors.append(e)
+
+    tick = time.perf_counter()
+    if workers == 1:
+        drain(0, *starts[0])
+    else:
+        threads = [
+            threading.Thread(target=guarded, args=(w, *s), name=f"msfd-queue-{w}", daemon=True)
+            for w, s in enumerate(starts)
+        ]
+        for t in threads:
+            t.start()
+        try:
+            for t in threads:
+                t.join()
+        except BaseException as e:  # Ctrl-C: the workers stop after their segment in flight
+            errors.append(e)
+            for t in threads:
+                t.join()
+            raise
+        if errors:
+            raise errors[0]
+    # the smaller programs' compilation (the threads wait for it) is compile time, not run time
+    late = sum(compiled[1:])
+    return dict(
+        slots=b, workers=workers, segments=sum(segments), compactions=sum(halvings),
+        slot_steps=sum(slot_steps), segment_s=sum(segment_s), compile_s=compile_s + late,
+        run_s=time.perf_counter() - tick - late,
+    )  # fmt: skip
+
+
+def _tail_size(running: int, size: int) -> int:
+    """The slots for `running` collisions of a tail now on `size` slots: halved while at most
+    half run, down to `MIN_SLOTS`; then, with at most `TAIL_SLOTS` running, the smallest power
+    of two that holds them (scalar code on XLA:CPU, whose cost grows with the slots)."""
+    if running == 0:
+        return size
+    while size // 2 >= MIN_SLOTS and running <= size // 2:
+        size //= 2
+    if running <= TAIL_SLOTS:
+        size = min(size, 1 << (running - 1).bit_length())
+    return size
+
+
+# On a GPU a substep's time grows with the slots down to about this many and no further:
+# 65.5, 235.5 and 1719 us for 1024, 8192 and 65536 slots on an H200, and a single collision's
+# substep took 73 us (benchmarks/results/gpu.md).
+GPU_TAIL_FLOOR = 1024
+
+
+def _tail_size_gpu(running: int, size: int) -> int:
+    """The slots for `running` collisions of a tail on `size` slots on a GPU: once at most a
+    quarter run, the smallest power of two that holds them, not below `GPU_TAIL_FLOOR`. Steps
+    of four (not halvings) because each new size is a compilation (6-14 s on an H200); with
+    them the busy slots never fall below a quarter until the floor."""
+    if running == 0 or size <= GPU_TAIL_FLOOR or running > size // 4:
+        return size
+    return max(GPU_TAIL_FLOOR, 1 << (running - 1).bit_length())
+
+
+def _slot_count(n: int, slots: int) -> int:
+    """Slots for n collisions: min(n, `slots`) rounded up to a power of two, at least
+    `MIN_SLOTS` (a 3-collision sweep runs 16 slots, not 32; extra slots idle).
+
+    Powers of two: every slot is then a full lane of the vector units (8 float64 in AVX-512,
+    4 in AVX2), so a collision's arithmetic is the same whatever the batch size; with batches
+    of 2 or 3 the lanes past the vector width ran as scalar remainder code, whose rounding
+    differed by ~1e-11 relative (and a cluster's task split changed results). At least 16:
+    a substep of 8 slots costs as much as one of 16 on XLA:CPU (59.5 against 62.6 us on the
+    paper mesh, `benchmarks/slot_cost.py`), so 8 slots only halve the throughput.
+    """
+    return max(MIN_SLOTS, 1 << max(0, (min(n, slots) - 1).bit_length()))
+
+
+def solve_batch(
+    params: CollisionParams,
+    mesh: Mesh,
+    settings: Settings,
+    dt_critical,
+    *,
+    max_steps: int,
+    contact_smoothing=0.0,
+    yield_smoothing=0.0,
+    adjoint=None,
+) -> dict:
+    """B collisions (`params` fields of shape (B,)) as one batch, differentiably.
+
+    Returns the energy partition per collision (fractions of K0, shape (B,)) with ``steps``
+    and ``result``. jit/grad/jvp-compatible: with ``adjoint=diffrax.ForwardMode()`` one
+    ``jax.jvp`` with a tangent per collision gives every collision's derivative along its own
+    tangent in one batched pass (the collisions are independent). `dt_critical` (B,) is not
+    differentiated (`critical_step`); `max_steps` bounds the diffrax steps (static).
+    """
+    smoothing = with_flags((contact_smoothing, yield_smoothing))
+    flat, cap = _scenes(params, mesh, smoothing)
+    dt = _dt(jax.lax.stop_gradient(jnp.asarray(dt_critical, float)), settings)
+    cap = jax.lax.stop_gradient(cap) if settings.t_max is None else None
+    clock = make_clock(flat, dt, settings, max_steps, cap)
+    sol = solve(
+        flat, clock, batch_initial_state(flat), settings, max_steps=max_steps, adjoint=adjoint
+    )
+    y = jax.tree_util.tree_map(lambda a: a[-1], sol.ys)
+    k0 = clock.k0
+    names = [c.name for c in flat.chains]
+    ring, beam = names.index("ring"), names.index("beam")
+    kin = kinetic(flat, y.v)
+    return dict(
+        beam_bending=y.bending[beam] / k0,
+        beam_axial=y.axial[beam] / k0,
+        ring_bending=y.bending[ring] / k0,
+        ring_axial=y.axial[ring] / k0,
+        contact=jnp.sum(y.contact, 0) / k0,
+        kinetic=jnp.sum(kin, 0) / k0,
+        elastic=y.elastic / k0,
+        steps=y.k * settings.substeps,
+        result=y.code,
+    )
