@@ -4,7 +4,7 @@ Issue 11's goals 1 and 3:
 - **sweep**: the 64 collisions of `sweep_throughput.py` (h_b/h_r 0.25-5 x 16, free/held,
   g = 5, 10; paper mesh, default sweep settings). numba loops over them one by one; msfd_jax
   runs them through `sweep` with 8 ... 64 slots (refilled as collisions stop). The figure is
-  the marginal cost per collision-step: run time (compilation excluded: `LAST_TIMING`) over
+  the marginal cost per collision-step: run time (compilation excluded: `SweepTable.timing`) over
   the Verlet steps of every attempt (the rows issue 12 reruns at a smaller step run in the
   same queue; numba runs each collision once); goal: <= 1/3 of numba's per-step cost.
 - **showcase**: one collision in process, jax (a batch of one, default `Settings` with
@@ -105,7 +105,7 @@ def main() -> None:
             tick, cpu = time.perf_counter(), time.process_time()
             table = m.sweep(GRID, m.Mesh(), settings, chunk_size=slots)
             wall, cpu = time.perf_counter() - tick, time.process_time() - cpu
-            runs.append((dict(_sweep.LAST_TIMING), wall, table, cpu))
+            runs.append((dict(table.timing), wall, table, cpu))
         timing, wall, table, cpu = min(runs, key=lambda r: r[0]["run_s"])
         # every attempt's steps: a row rerun at a smaller step (issue 12) runs in the same
         # queue, and its first attempt's steps are work done too

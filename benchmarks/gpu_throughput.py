@@ -132,7 +132,6 @@ def computed(loop: str | None) -> dict:
     warm wall time."""
     import msfd_jax as m
     from msfd_jax._collision.attempts import first_attempts
-    from msfd_jax._sweeps import sweep as _sweep
     from msfd_jax.studies.scripts import regression_baseline as rb
 
     out: dict = {"singles": {}}
@@ -149,7 +148,7 @@ def computed(loop: str | None) -> dict:
     with first_attempts():
         table = m.sweep(rb.SWEEP_GRID, m.Mesh(), settings, progress=False)
     out["sweep_s"] = time.perf_counter() - tick
-    out["sweep_timing"] = dict(_sweep.LAST_TIMING)
+    out["sweep_timing"] = dict(table.timing)
     out["sweep_loop"] = settings.contact_loop or "default"
     out["sweep"] = [
         {k: float(table[k][i]) for k in rb.FRACTIONS}
@@ -211,13 +210,12 @@ def check(loop: str | None) -> dict:
 
 def whole_sweep(loop: str, b: int, n: int) -> dict:
     import msfd_jax as m
-    from msfd_jax._sweeps import sweep as _sweep
 
     settings = _sweep_settings(loop)
     tick = time.perf_counter()
     table = m.sweep(grid(n), m.Mesh(), settings, chunk_size=b, workers=1, progress=False)
     wall = time.perf_counter() - tick
-    t = dict(_sweep.LAST_TIMING)
+    t = dict(table.timing)
     steps = int(np.sum(table["steps"]))  # Verlet steps of every collision's reported attempt
     return dict(
         loop=loop, slots=b, n=len(table), wall_s=wall, timing=t, steps=steps,

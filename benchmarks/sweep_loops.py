@@ -3,7 +3,7 @@
 `contact_loop.py` times single segments; this runs the same collisions through
 ``msfd_jax.sweep`` (one worker, 32 slots, the queue with its refills, retries and tail) with
 ``Settings.contact_loop`` "blocks" and "listed" in turn, `--repeats` times each (the first of
-each compiles; run times exclude compilation, `_sweep.LAST_TIMING`), and compares the tables.
+each compiles; run times exclude compilation, `SweepTable.timing`), and compares the tables.
 The collisions: `--count` drawn from goal 2's grid (`_bench.GRID`, seed 0), on the
 paper's mesh times `--factor`.
 
@@ -42,7 +42,6 @@ def main() -> None:
 
     jax.config.update("jax_enable_x64", True)
     import msfd_jax as m
-    from msfd_jax._sweeps import sweep as _sweep
 
     grid = _bench.GRID
     rows = [dict(zip(grid, v, strict=True)) for v in itertools.product(*grid.values())]
@@ -55,7 +54,7 @@ def main() -> None:
         for loop in runs:
             settings = m.Settings(history_points=2, shape_times=(), contact_loop=loop)
             tables[loop] = m.sweep(collisions, mesh, settings, workers=1)
-            timing = _sweep.LAST_TIMING
+            timing = tables[loop].timing
             runs[loop].append(timing["run_s"])
             steps[loop] = timing["steps"]
             print(loop, timing, flush=True)

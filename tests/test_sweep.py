@@ -260,9 +260,7 @@ ROWS20 = [dict(thickness_ratio=t, velocity=v, axial_constraint=a) for t in (1.0,
 
 @pytest.fixture(scope="module")
 def one_worker():
-    table = sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=1)
-    table.timing = dict(_sweep.LAST_TIMING)
-    return table
+    return sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=1)
 
 
 def test_more_collisions_than_slots_refill_and_equal_single_runs(one_worker):
@@ -285,8 +283,8 @@ def test_worker_threads_give_the_same_rows(one_worker):
     collision's result does not depend on its slot. 40 collisions: refills in both."""
     rows = ROWS20 + [{**r, "mass_ratio": 5.0} for r in ROWS20]
     two = sweep(rows, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=2)
-    assert _sweep.LAST_TIMING["workers"] == 2 and _sweep.LAST_TIMING["slots"] == 16
-    assert _sweep.LAST_TIMING["segments"] > 2
+    assert two.timing["workers"] == 2 and two.timing["slots"] == 16
+    assert two.timing["segments"] > 2
     one = sweep(rows[20:], SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=1)
     for key in OUTPUTS:
         if key == "wall_time_s":
@@ -296,7 +294,7 @@ def test_worker_threads_give_the_same_rows(one_worker):
         np.testing.assert_array_equal(np.asarray(one[key]), second, err_msg=key)
     # one worker of 32 slots: 8 refills, then the tail moves into a program of 16 slots
     wide = sweep(rows, SMALL_MESH, SHORT, chunk_size=32, contact_smoothing=SMOOTH, workers=1)
-    assert _sweep.LAST_TIMING["slots"] == 32 and _sweep.LAST_TIMING["compactions"] >= 1
+    assert wide.timing["slots"] == 32 and wide.timing["compactions"] >= 1
     for key in OUTPUTS:
         if key != "wall_time_s":
             np.testing.assert_array_equal(np.asarray(wide[key]), np.asarray(two[key]), key)
@@ -356,7 +354,7 @@ def test_the_gpu_tail_rule_gives_the_same_rows(one_worker, monkeypatch):
     monkeypatch.setattr(_queue, "platform", lambda: "gpu")
     monkeypatch.setattr(_queue, "GPU_TAIL_FLOOR", 4)
     gpu = sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=1)
-    assert _sweep.LAST_TIMING["compactions"] == 1  # 16 slots, then 4
+    assert gpu.timing["compactions"] == 1  # 16 slots, then 4
     for key in OUTPUTS:
         if key != "wall_time_s":
             np.testing.assert_array_equal(np.asarray(gpu[key]), np.asarray(one_worker[key]), key)
@@ -373,7 +371,7 @@ def test_a_retry_runs_in_the_queue_as_it_would_alone(monkeypatch):
     # is rerun (test_reliability.py), some twice
     table = sweep(rows, SMALL_MESH, lean, workers=1)
     assert all(r >= 1 for r in table["retries"])
-    assert _sweep.LAST_TIMING["steps"] > int(np.sum(table["steps"]))  # the first attempts too
+    assert table.timing["steps"] > int(np.sum(table["steps"]))  # the first attempts too
     monkeypatch.setattr(_attempts, "BALANCE_RETRIES", 0)
     for safety in sorted(set(np.asarray(table["safety"]).round(12).tolist())):
         these = np.flatnonzero(np.isclose(table["safety"], safety))

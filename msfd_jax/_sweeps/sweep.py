@@ -71,10 +71,6 @@ OUTPUTS = (*SOLVED_OUTPUTS, *RETRY_OUTPUTS)  # retries, safety: issue 12 (`_retr
 SWEEP_SETTINGS = Settings(history_points=2, shape_times=())
 MAX_CHUNK = 65_536  # slots or vmapped rows per compiled call (chunks are padded to it)
 DEFAULT_CHUNK = DEFAULT_SLOTS  # a CPU's slots per worker (None: `_queue.default_slots`)
-# compile and run time of the last in-process sweep (slots, segments, compile_s, run_s, and
-# steps: the Verlet steps of every attempt, the reruns at a smaller step included; those run
-# in the same queue, issue 12)
-LAST_TIMING: dict = {}
 
 
 def collisions(
@@ -244,9 +240,12 @@ def sweep(
     kwargs.update(contact_smoothing=contact_smoothing, yield_smoothing=yield_smoothing)
     kwargs.update(workers=1 if client is not None else workers)
     todo_columns = {k: columns[k][todo] for k in INPUTS}
+    timing: dict = {}
     try:
         if len(todo) and client is None:
-            solve_collisions(todo_columns, **kwargs, on_rows=take, on_stage=bar.note)
+            solve_collisions(
+                todo_columns, **kwargs, on_rows=take, on_stage=bar.note, on_timing=timing.update
+            )
         elif len(todo):
             bar.note(f"{math.ceil(len(todo) / task_size)} tasks of <= {task_size} on Dask")
             rows = np.arange(len(todo))
@@ -258,6 +257,7 @@ def sweep(
         if store is not None:
             store.close()
     table = SweepTable({**columns, **_assemble(parts, n)}, grid, time.perf_counter() - start)
+    table.timing = timing or None
     if si is not None:
         table.columns.update(si_columns(table.columns, si[1]))
         table.grid = si[2]
@@ -326,6 +326,7 @@ def _solve_collisions(
     workers: int | None = None,
     on_rows: Callable[[np.ndarray, dict[str, np.ndarray]], None] | None = None,
     on_stage: Callable[[str], None] | None = None,
+    on_timing: Callable[[dict], None] | None = None,
 ) -> dict[str, np.ndarray]:
     """The output columns (`OUTPUTS`) of the collisions in `columns`, in their order.
 
@@ -334,7 +335,8 @@ def _solve_collisions(
     makes them). They are validated first (ValueError/TypeError before anything compiles).
     `on_rows(rows, outputs)`, when given, is called as soon as a group of collisions has
     finished, with their positions in `columns` and their output columns (for writing rows
-    as they finish, and for progress); `on_stage(text)` names the stage that starts.
+    as they finish, and for progress); `on_stage(text)` names the stage that starts;
+    `on_timing(timing)` receives the queue engine's timing (`SweepTable.timing`).
     """
     missing = sorted(set(INPUTS) - set(columns))
     if missing:
@@ -415,8 +417,8 @@ def _solve_collisions(
         order=order,
     )
     timing["steps"] = attempts.steps  # Verlet steps of every attempt (retries included)
-    LAST_TIMING.clear()
-    LAST_TIMING.update(timing)
+    if on_timing is not None:
+        on_timing(timing)
     return assemble(parts, n)
 
 

@@ -30,13 +30,18 @@ class SweepTable:
     grid (rows in C order: the last axis varies fastest), else None. `wall_time_s` is the
     whole sweep's. `computed`, for a sweep that wrote its rows to a file, marks the rows
     this call computed (the others were read back from the file by ``resume=True``); None
-    otherwise.
+    otherwise. `timing`, for a sweep solved in this process by the queue engine, is its
+    cost: ``workers``, ``slots``, ``segments`` (compiled calls), ``compactions``,
+    ``compile_s``, ``run_s`` (compilation excluded) and ``steps`` (the Verlet steps of every
+    attempt, reruns at a smaller step included); None otherwise (Dask tasks, shards, a sweep
+    read back whole).
     """
 
     columns: dict[str, np.ndarray]
     grid: dict[str, np.ndarray] | None = None
     wall_time_s: float = float("nan")
     computed: np.ndarray | None = None
+    timing: dict[str, Any] | None = None
 
     def __len__(self) -> int:
         return len(next(iter(self.columns.values())))
