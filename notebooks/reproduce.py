@@ -28,7 +28,7 @@
 # 4. Fig. 17c: the half ring under a plate against the Appendix's rigid-plastic solution.
 #
 # The full reproduction on the paper's mesh is `msfd reproduce` (figures in `docs/figures/`,
-# numbers in `benchmarks/results/reproduce/reproduce.md`); `docs/validation.md` discusses every
+# numbers in `docs/results/reproduce/reproduce.md`); `docs/validation.md` discusses every
 # figure. Quick-mode numbers differ from those by the mesh's discretisation error (1-3 % of K0,
 # `benchmarks/results/convergence.md`); the qualitative findings are the same.
 

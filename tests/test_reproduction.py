@@ -3,7 +3,7 @@
 One vmapped sweep (one compiled program) of seven collisions; thresholds are stated with
 their reasons below. Then the quick reproduction of Fig. 13-14 (`msfd reproduce --quick --only
 fig13_14`), which gives the "U" to "W" finding. The full-mesh numbers are in
-benchmarks/results/reproduce/reproduce.md (`msfd reproduce`).
+docs/results/reproduce/reproduce.md (`msfd reproduce`).
 """
 
 import json
@@ -68,7 +68,7 @@ def test_beam_axial_dissipation_falls_with_thickness_under_constraint(table):
 def test_local_contact_dissipation_small_and_independent_of_the_attached_mass(table):
     # Fig. 16 / Sect. 4.3.2: the collision stage is local, so the contact dissipation depends
     # on v0 only. Same v0 = 1.6, g = 5 and 20: equal to 5 % (the paper mesh: 0.0 % spread over
-    # g = 2-40, benchmarks/results/reproduce/reproduce.md). On this coarse mesh the spread is a
+    # g = 2-40, docs/results/reproduce/reproduce.md). On this coarse mesh the spread is a
     # step-size effect of the sharp re-contacts: 9.6 % at safety 0.35, 0.3 % at the fixture's
     # 0.0875 (see `table`); issue 11 had widened this tolerance to 8 % for it, issue 12
     # restores 5 % with the smaller step.
@@ -117,7 +117,7 @@ def test_the_final_ring_turns_from_u_to_w_as_the_beam_thickens(shapes_quick):
     # thickness, node-level ripple of a flat bottom), "W" beyond h_r/R = 0.1 (the apex
     # pushed back by more than the ring's thickness); scales of the section, not fitted.
     # Coarse mesh, constrained, g = 10, v0 = 0.82; measured w = 0.000 (0.5, 1), 0.059 (2),
-    # 0.40-0.53 (3-5); the paper mesh gives the same classes (benchmarks/results/reproduce).
+    # 0.40-0.53 (3-5); the paper mesh gives the same classes (docs/results/reproduce).
     record, _ = shapes_quick
     sweep = record.numbers["sweep"]
     h = np.array([r["thickness_ratio"] for r in sweep])

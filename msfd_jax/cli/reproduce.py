@@ -1,7 +1,7 @@
 """``msfd reproduce``: regenerate the paper's Sect. 4 results (figures and numbers).
 
 A full run writes the figures to ``docs/figures`` and ``reproduce.md`` / ``reproduce.json``
-to ``benchmarks/results/reproduce`` (both relative to the current directory); ``--quick`` (a
+to ``docs/results/reproduce`` (both relative to the current directory); ``--quick`` (a
 coarse mesh and few points, a few minutes) writes both to ``reproduce-quick/`` instead, so a
 quick run never overwrites the committed figures. ``--only KEY ...`` picks figures.
 """
@@ -34,8 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--results",
         type=Path,
         metavar="DIR",
-        help="where reproduce.md/.json go (default benchmarks/results/reproduce; "
-        "quick: reproduce-quick)",
+        help="where reproduce.md/.json go (default docs/results/reproduce; quick: reproduce-quick)",
     )
     common.add_quiet_argument(parser, "--no-progress")
     parser.add_argument("--no-cache", action="store_true", help="no persistent compile cache")
@@ -54,7 +53,7 @@ def handle(args: argparse.Namespace) -> int:
         results = args.results or base
     else:
         figures = args.figures or Path("docs") / "figures"
-        results = args.results or Path("benchmarks") / "results" / "reproduce"
+        results = args.results or Path("docs") / "results" / "reproduce"
     if not args.no_cache:
         common.enable_compilation_cache()
     records = run(keys, args.quick, figures, results, progress=not args.quiet)
