@@ -12,6 +12,7 @@ it ran in (tests/test_engine.py: a batch of N equals N single runs).
 from __future__ import annotations
 
 import collections
+import dataclasses
 import os
 import threading
 import time
@@ -185,193 +186,138 @@ def run_queue(
     """Run every collision of `params` (columns of CollisionParams fields) through B slots.
 
     The queue starts in `order` (row positions; default: as given): a sweep puts its longest
-    collisions first. Retries join the queue: `on_done(rows, solution, wall, attempts)` may
-    return a mask of the rows to solve again, and each goes back to the front of the queue
-    with its step halved (attempt a runs at 0.5 ** a times the step, with `max_steps[a]`
-    diffrax steps allowed when `max_steps` is a tuple, one bound per attempt). A retry so
-    runs in a free slot beside the rest of the sweep, not in a pass of its own after it.
+    collisions first. `on_done(rows, solution, wall, attempts)` receives each group of
+    collisions that stopped in the same segment of one worker: their positions in `params`,
+    a batch-first `Solution` of them (no histories), each one's share of the run time
+    (compile time excluded) and each one's attempt; calls are serialised. It may return a
+    mask of the rows to solve again: each goes back to the front of the queue with its step
+    halved (attempt a runs at 0.5 ** a times the step, with `max_steps[a]` diffrax steps
+    allowed when `max_steps` is a tuple, one bound per attempt). A retry so runs in a free
+    slot beside the rest of the sweep, not in a pass of its own after it.
 
     `workers` threads each run their own B slots, all taking collisions from one queue
     (XLA releases the GIL while a compiled program runs, so W threads use W cores; one
-    compiled program serves them all). `on_done(rows, solution, wall)` receives each group
-    of collisions that stopped in the same segment of one worker: their positions in
-    `params`, a batch-first `Solution` of them (no histories), each one's share of the
-    run time (compile time excluded) and its attempt; calls are serialised. Returns the
-    slot count, the worker count, the number of segments and of compactions (below), the
-    Verlet steps the slots ran in all (`slot_steps`, busy or idle: the sweep's steps over it
-    is the lanes' utilisation), the seconds the workers spent in segment programs in all
-    (`segment_s`; the rest of workers x run time: the hand-over between segments, a worker
-    idle at the end, waits for a tail program's compilation),
-    the compile and run times (run time: wall time of the whole queue, compile excluded).
+    compiled program serves them all). Returns the slot count, the worker count, the number
+    of segments and of compactions (below), the Verlet steps the slots ran in all
+    (`slot_steps`, busy or idle: the sweep's steps over it is the lanes' utilisation), the
+    seconds the workers spent in segment programs in all (`segment_s`; the rest of workers x
+    run time: the hand-over between segments, a worker idle at the end, waits for a tail
+    program's compilation), the compile and run times (run time: wall time of the whole
+    queue, compile excluded).
 
     The tail: once the queue is empty and at most half of a worker's slots still run (on a
     GPU: a quarter, `_tail_size_gpu`), their collisions move into a program of fewer slots
     (the next power of two, down to `TAIL_SLOTS`, on a GPU `GPU_TAIL_FLOOR`; compiled when
     first needed, its compilation counted as compile time): the tail of a sweep no longer
-    pays for stopped slots. A collision's result does not depend
-    on its slot or the slot count (tests/test_sweep.py).
+    pays for stopped slots. A collision's result does not depend on its slot or the slot
+    count (tests/test_sweep.py).
     """
     n = len(dt_critical)
     workers = max(1, min(int(workers), -(-n // MIN_SLOTS)))  # >= MIN_SLOTS collisions each
-    b = _slot_count(-(-n // workers), slots)
-    smoothing = with_flags(smoothing)
-    bounds = max_steps if isinstance(max_steps, tuple) else (max_steps,)
-    order = range(n) if order is None else np.asarray(order).tolist()
-    queue = collections.deque((row, 0) for row in order)  # (row, attempt)
-    names = list(params)
-    lock = threading.Lock()
+    queue = _SweepQueue(
+        params, dt_critical, mesh, settings, with_flags(smoothing), max_steps, segment, on_done,
+        order=range(n) if order is None else np.asarray(order).tolist(),
+    )  # fmt: skip
+    return queue.run(workers, _slot_count(-(-n // workers), slots))
 
-    def batch_of(rows, attempts, size=b):
-        rows, attempts = np.asarray(rows), np.asarray(attempts)
-        pad = size - len(rows)
-        rows = np.concatenate([rows, np.full(pad, rows[0])])
-        attempts = np.concatenate([attempts, np.zeros(pad, np.int64)])
-        p = CollisionParams(**{k: jnp.asarray(params[k][rows]) for k in names})
-        steps = np.asarray(bounds, np.float64)[np.minimum(attempts, len(bounds) - 1)]
-        factor = jnp.asarray(RETRY_FACTOR**attempts)  # the step of attempt a: exact powers of 2
-        return p, jnp.asarray(dt_critical[rows]), jnp.asarray(steps), factor
 
-    def take(count):
-        with lock:
-            got = [queue.popleft() for _ in range(min(count, len(queue)))]
-        return [r for r, _ in got], [a for _, a in got]
+def _stopped(y: BatchState, mask) -> BatchState:
+    """`y` with the slots where `mask` (B,) is true marked stopped: a segment keeps their
+    state as it is."""
+    return eqx.tree_at(lambda s: s.done, y, jnp.where(jnp.asarray(mask), 1.0, y.done))
 
-    on_cpu = platform() == "cpu"
-    compiled: list[float] = []  # seconds of each program size's compilation
-    programs: dict[int, tuple] = {}
-    compiling = threading.Lock()
 
-    def programs_for(size, state):
-        """The segment, report and refill programs for `size` slots, compiled ahead of time
-        (once; a thread that needs a size another is compiling waits for it)."""
-        with compiling:
-            if size not in programs:
-                tick = time.perf_counter()
-                flat, clock, y = state
-                zeros = np.zeros(size, np.int64)
-                p, d, steps, factor = batch_of(zeros, zeros, size)
-                # through the store of serialized programs when it is on (the CLI's): a new
-                # process then loads them instead of tracing diffrax's loop again (`_export`)
-                refill_args = (flat, clock, y, jnp.zeros(size, bool), p, d, mesh, smoothing,
-                               settings, steps, factor)  # fmt: skip
-                programs[size] = (
-                    _export.compile_program(
-                        _segment, flat, clock, y, settings, segment, name="queue_segment"
-                    ),
-                    _export.compile_program(_report, flat, clock, y, name="queue_report"),
-                    _export.compile_program(_refill, *refill_args, name="queue_refill"),
-                )
-                compiled.append(time.perf_counter() - tick)
-            return programs[size]
+@dataclasses.dataclass
+class _Slots:
+    """One worker's slots: its batch on the device and, per slot, what the host tracks.
 
-    tick = time.perf_counter()
-    starts = []
-    for _ in range(workers):
-        first, attempts = take(b)
-        if first:  # (64 collisions, 3 workers of 32 slots: the third has none)
-            p, d, steps, factor = batch_of(first, attempts)
-            state = _export.call(_start, p, d, mesh, smoothing, settings, steps, factor,
-                                 name="queue_start")  # fmt: skip
-            starts.append((first, state))
-    workers = len(starts)
-    flat, clock, y = starts[0][1]
-    # compile the programs ahead of time (once, before the threads start), so that their
-    # compilation is timed apart from the run
-    programs_for(b, (flat, clock, y))
-    compile_s = time.perf_counter() - tick
-    segments, halvings = [0] * workers, [0] * workers
-    slot_steps = [0] * workers  # Verlet steps the lanes ran, busy or idle (utilisation)
-    segment_s = [0.0] * workers  # seconds in the segment programs
-    errors: list[BaseException] = []
+    Once its worker runs, only that worker writes it. A slot with `row` -1 runs no collision
+    (it stopped and the queue had nothing for it, or it pads the batch) and is marked stopped
+    on the device.
+    """
 
-    def shrink(state, slot_row, busy, slot_attempt, size):
-        """The running slots moved into a batch of `size` slots."""
-        keep = np.flatnonzero(slot_row >= 0)
-        idx = np.concatenate([keep, np.full(size - len(keep), keep[0])])
-        flat, clock, y = jax.tree_util.tree_map(lambda a: a[..., idx], state)
-        pad = np.arange(size) >= len(keep)
-        y = eqx.tree_at(lambda s: s.done, y, jnp.where(jnp.asarray(pad), 1.0, y.done))
-        rows = np.where(pad, -1, slot_row[idx])
-        return (flat, clock, y), rows, np.where(pad, 0.0, busy[idx]), slot_attempt[idx]
+    state: tuple  # (flat, clock, y): the slots' scenes, clocks and states on the device
+    row: np.ndarray  # each slot's position in `params`; -1: none
+    attempt: np.ndarray  # each slot's attempt (attempt a: the step halved a times)
+    busy: np.ndarray  # run time attributed so far to each slot's collision (s)
+    programs: tuple = ()  # the (segment, report, refill) programs compiled for len(row) slots
+    segments: int = 0  # segments run
+    compactions: int = 0  # moves of the tail to fewer slots
+    slot_steps: int = 0  # Verlet steps the slots ran, busy or idle (utilisation)
+    segment_s: float = 0.0  # seconds in the segment programs
 
-    def drain(w, first, state):
-        flat, clock, y = state
-        slot_row = np.full(b, -1)
-        slot_row[: len(first)] = first
-        slot_attempt = np.zeros(b, np.int64)  # 0 at the start: retries come from refills
-        if len(first) < b:  # idle slots (fewer collisions than slots): stopped from the start
-            idle = jnp.asarray(slot_row < 0)
-            y = eqx.tree_at(lambda s: s.done, y, jnp.where(idle, 1.0, y.done))
-        busy = np.zeros(b)  # run time attributed to each slot's current collision
-        segment_fn, report_fn, refill_fn = programs[b]
-        while (slot_row >= 0).any() and not errors:
-            tick = time.perf_counter()
-            y = segment_fn(flat, clock, y, settings, segment)
-            done = np.asarray(y.done) > 0
-            wall = time.perf_counter() - tick
-            segment_s[w] += wall
-            segments[w] += 1
-            slot_steps[w] += len(slot_row) * segment * settings.substeps
-            active = slot_row >= 0
-            busy[active] += wall / max(int(active.sum()), 1)
-            finished = done & active
-            if not finished.any():
-                continue
-            idx = np.flatnonzero(finished)
-            pick = jax.tree_util.tree_map(
-                lambda a, idx=idx: np.asarray(a)[idx], jax.device_get(report_fn(flat, clock, y))
-            )
-            dt = np.asarray(clock.dt0)[idx] / settings.substeps
-            k0 = np.asarray(clock.k0)[idx]
-            solution = _solution(flat, *pick, dt, dt_critical[slot_row[idx]], k0, settings.substeps)
-            rows, attempts = slot_row[idx], slot_attempt[idx]
-            with lock:
-                again = on_done(rows, solution, busy[idx].copy(), attempts)
-                if again is not None and np.any(again):  # retries first: the longest runs
-                    again = np.asarray(again, bool)
-                    retried = zip(rows[again].tolist(), (attempts[again] + 1).tolist(), strict=True)
-                    queue.extendleft(list(retried)[::-1])
-            busy[idx] = 0.0
-            slot_row[idx] = -1
-            rows, attempts = take(len(idx))
-            if rows:
-                fill = idx[: len(rows)]
-                take_mask = np.zeros(len(slot_row), bool)
-                take_mask[fill] = True
-                new_rows = np.zeros(len(slot_row), np.int64)
-                new_rows[fill] = rows
-                new_attempts = np.zeros(len(slot_row), np.int64)
-                new_attempts[fill] = attempts
-                p, d, steps, factor = batch_of(new_rows, new_attempts, len(slot_row))
-                flat, clock, y = refill_fn(
-                    flat, clock, y, jnp.asarray(take_mask), p, d, mesh, smoothing, settings,
-                    steps, factor,
-                )  # fmt: skip
-                slot_row[fill] = rows
-                slot_attempt[fill] = attempts
-            running, size = int((slot_row >= 0).sum()), len(slot_row)
-            smaller = _tail_size(running, size) if on_cpu else _tail_size_gpu(running, size)
-            if not rows and smaller < size:  # the tail: the queue is empty
-                state = (flat, clock, y)
-                (flat, clock, y), slot_row, busy, slot_attempt = shrink(
-                    state, slot_row, busy, slot_attempt, smaller
-                )
-                halvings[w] += 1
-                segment_fn, report_fn, refill_fn = programs_for(smaller, (flat, clock, y))
 
-    def guarded(w, first, state):
-        try:
-            drain(w, first, state)
-        except BaseException as e:  # re-raised in the caller's thread
-            errors.append(e)
+class _SweepQueue:
+    """The collisions a sweep's workers take, what they share, and the loop each one runs.
 
-    tick = time.perf_counter()
-    if workers == 1:
-        drain(0, *starts[0])
-    else:
+    `pending` holds the (row, attempt) pairs not yet taken, in the order they are taken;
+    `lock` guards it and serialises `on_done`, and a retry `on_done` asks for is in
+    `pending` before the lock is released. `programs` holds the compiled programs per slot
+    count, each compiled once under `compiling` (a worker that needs a size another is
+    compiling waits for it); `compile_times` the seconds each took. Each worker writes only
+    its own `_Slots`; `run` adds up their counters once the workers are done.
+    """
+
+    def __init__(
+        self, params, dt_critical, mesh, settings, smoothing, max_steps, segment, on_done, order
+    ):
+        self.params, self.names = params, list(params)
+        self.dt_critical = dt_critical
+        self.mesh, self.settings, self.smoothing, self.segment = mesh, settings, smoothing, segment
+        self.bounds = max_steps if isinstance(max_steps, tuple) else (max_steps,)  # per attempt
+        self.on_done = on_done
+        self.pending = collections.deque((row, 0) for row in order)
+        self.lock = threading.Lock()
+        self.on_cpu = platform() == "cpu"  # which tail rule (`_tail_size`, `_tail_size_gpu`)
+        self.programs: dict[int, tuple] = {}
+        self.compiling = threading.Lock()
+        self.compile_times: list[float] = []  # the first: the programs of the starting size
+        self.errors: list[BaseException] = []  # a worker thread's exception, re-raised by `run`
+
+    def run(self, workers: int, size: int) -> dict:
+        """Every collision through up to `workers` workers of `size` slots (a worker the queue
+        has no collisions for does not run): `run_queue`'s timing."""
+        tick = time.perf_counter()
+        started = [self.fill_slots(size) for _ in range(workers)]
+        started = [s for s in started if s is not None]  # (64 collisions, 3 workers of 32)
+        # compile the programs ahead of time (once, before the threads start), so that their
+        # compilation is timed apart from the run
+        programs = self.programs_for(size, started[0].state)
+        for slots in started:
+            slots.programs = programs
+        compile_s = time.perf_counter() - tick
+        tick = time.perf_counter()
+        if len(started) == 1:
+            self.work(started[0])
+        else:
+            self._run_threads(started)
+        # the smaller programs' compilation (the threads wait for it) is compile time, not run time
+        late = sum(self.compile_times[1:])
+        return dict(
+            slots=size,
+            workers=len(started),
+            segments=sum(s.segments for s in started),
+            compactions=sum(s.compactions for s in started),
+            slot_steps=sum(s.slot_steps for s in started),
+            segment_s=sum(s.segment_s for s in started),
+            compile_s=compile_s + late,
+            run_s=time.perf_counter() - tick - late,
+        )
+
+    def _run_threads(self, started: list[_Slots]) -> None:
+        """`work` on each worker's slots in a thread of its own; the first exception of a
+        worker (or of the caller while it waits: Ctrl-C) stops every worker after its segment
+        in flight and is raised here."""
+
+        def guarded(slots):
+            try:
+                self.work(slots)
+            except BaseException as e:  # re-raised in the caller's thread
+                self.errors.append(e)
+
         threads = [
-            threading.Thread(target=guarded, args=(w, *s), name=f"msfd-queue-{w}", daemon=True)
-            for w, s in enumerate(starts)
+            threading.Thread(target=guarded, args=(s,), name=f"msfd-queue-{w}", daemon=True)
+            for w, s in enumerate(started)
         ]
         for t in threads:
             t.start()
@@ -379,19 +325,164 @@ def run_queue(
             for t in threads:
                 t.join()
         except BaseException as e:  # Ctrl-C: the workers stop after their segment in flight
-            errors.append(e)
+            self.errors.append(e)
             for t in threads:
                 t.join()
             raise
-        if errors:
-            raise errors[0]
-    # the smaller programs' compilation (the threads wait for it) is compile time, not run time
-    late = sum(compiled[1:])
-    return dict(
-        slots=b, workers=workers, segments=sum(segments), compactions=sum(halvings),
-        slot_steps=sum(slot_steps), segment_s=sum(segment_s), compile_s=compile_s + late,
-        run_s=time.perf_counter() - tick - late,
-    )  # fmt: skip
+        if self.errors:
+            raise self.errors[0]
+
+    def batch(self, rows, attempts, size: int) -> tuple:
+        """`_start`'s per-collision inputs (params, dt_critical, max_steps, step factor) for
+        `rows` at `attempts`, padded to `size` slots with the first row at attempt 0."""
+        rows, attempts = np.asarray(rows), np.asarray(attempts)
+        pad = size - len(rows)
+        rows = np.concatenate([rows, np.full(pad, rows[0])])
+        attempts = np.concatenate([attempts, np.zeros(pad, np.int64)])
+        p = CollisionParams(**{k: jnp.asarray(self.params[k][rows]) for k in self.names})
+        steps = np.asarray(self.bounds, np.float64)[np.minimum(attempts, len(self.bounds) - 1)]
+        factor = jnp.asarray(RETRY_FACTOR**attempts)  # the step of attempt a: exact powers of 2
+        return p, jnp.asarray(self.dt_critical[rows]), jnp.asarray(steps), factor
+
+    def take(self, count: int) -> tuple[list[int], list[int]]:
+        """Up to `count` collisions from the front of the queue: their rows and attempts."""
+        with self.lock:
+            got = [self.pending.popleft() for _ in range(min(count, len(self.pending)))]
+        return [r for r, _ in got], [a for _, a in got]
+
+    def _hand_back(self, rows: np.ndarray, attempts: np.ndarray) -> None:
+        """`rows` (that ran `attempts`) to the front of the queue, in their order, for their
+        next attempt: retries first, since they are the longest runs. The caller holds `lock`."""
+        retried = zip(rows.tolist(), (attempts + 1).tolist(), strict=True)
+        self.pending.extendleft(list(retried)[::-1])
+
+    def programs_for(self, size: int, state) -> tuple:
+        """The segment, report and refill programs for `size` slots, compiled ahead of time
+        (once; a thread that needs a size another is compiling waits for it)."""
+        with self.compiling:
+            if size not in self.programs:
+                tick = time.perf_counter()
+                flat, clock, y = state
+                zeros = np.zeros(size, np.int64)
+                p, d, steps, factor = self.batch(zeros, zeros, size)
+                # through the store of serialized programs when it is on (the CLI's): a new
+                # process then loads them instead of tracing diffrax's loop again (`_export`)
+                refill_args = (flat, clock, y, jnp.zeros(size, bool), p, d, self.mesh,
+                               self.smoothing, self.settings, steps, factor)  # fmt: skip
+                self.programs[size] = (
+                    _export.compile_program(
+                        _segment, flat, clock, y, self.settings, self.segment, name="queue_segment"
+                    ),
+                    _export.compile_program(_report, flat, clock, y, name="queue_report"),
+                    _export.compile_program(_refill, *refill_args, name="queue_refill"),
+                )
+                self.compile_times.append(time.perf_counter() - tick)
+            return self.programs[size]
+
+    def fill_slots(self, size: int) -> _Slots | None:
+        """A worker's `size` slots with the next collisions of the queue started in them (slots
+        past the last: none, stopped from the start); None when the queue is empty."""
+        rows, attempts = self.take(size)
+        if not rows:
+            return None
+        p, d, steps, factor = self.batch(rows, attempts, size)
+        flat, clock, y = _export.call(_start, p, d, self.mesh, self.smoothing, self.settings,
+                                      steps, factor, name="queue_start")  # fmt: skip
+        row, attempt = np.full(size, -1), np.zeros(size, np.int64)
+        row[: len(rows)], attempt[: len(rows)] = rows, attempts
+        if len(rows) < size:
+            y = _stopped(y, row < 0)
+        return _Slots((flat, clock, y), row, attempt, busy=np.zeros(size))
+
+    def work(self, slots: _Slots) -> None:
+        """One worker's loop: a segment of every slot, then the slots whose collision stopped
+        report it and take the next collisions of the queue; once the queue has none for them,
+        the tail moves to fewer slots. Ends when no slot runs or a worker has failed."""
+        while (slots.row >= 0).any() and not self.errors:
+            stopped = self.advance(slots)
+            if not len(stopped):
+                continue
+            self.report(slots, stopped)
+            if not self.refill(slots, stopped):  # the tail: the queue is empty
+                self.compact(slots)
+
+    def advance(self, slots: _Slots) -> np.ndarray:
+        """One segment of every slot, its run time shared among the running collisions;
+        returns the slots whose collision stopped in it."""
+        flat, clock, y = slots.state
+        tick = time.perf_counter()
+        y = slots.programs[0](flat, clock, y, self.settings, self.segment)
+        done = np.asarray(y.done) > 0
+        wall = time.perf_counter() - tick
+        slots.state = (flat, clock, y)
+        slots.segment_s += wall
+        slots.segments += 1
+        slots.slot_steps += len(slots.row) * self.segment * self.settings.substeps
+        active = slots.row >= 0
+        slots.busy[active] += wall / max(int(active.sum()), 1)
+        return np.flatnonzero(done & active)
+
+    def report(self, slots: _Slots, idx: np.ndarray) -> None:
+        """The collisions that stopped in slots `idx` handed to `on_done` (those it asks to
+        solve again back to the front of the queue); the slots are then free."""
+        flat, clock, y = slots.state
+        pick = jax.tree_util.tree_map(
+            lambda a: np.asarray(a)[idx], jax.device_get(slots.programs[1](flat, clock, y))
+        )
+        substeps = self.settings.substeps
+        dt = np.asarray(clock.dt0)[idx] / substeps
+        k0 = np.asarray(clock.k0)[idx]
+        rows, attempts = slots.row[idx], slots.attempt[idx]
+        solution = _solution(flat, *pick, dt, self.dt_critical[rows], k0, substeps)
+        with self.lock:
+            again = self.on_done(rows, solution, slots.busy[idx].copy(), attempts)
+            if again is not None and np.any(again):
+                again = np.asarray(again, bool)
+                self._hand_back(rows[again], attempts[again])
+        slots.busy[idx] = 0.0
+        slots.row[idx] = -1
+
+    def refill(self, slots: _Slots, idx: np.ndarray) -> bool:
+        """The next collisions of the queue started in the free slots `idx`, in that order;
+        False when the queue had none."""
+        rows, attempts = self.take(len(idx))
+        if not rows:
+            return False
+        size = len(slots.row)
+        fill = idx[: len(rows)]
+        take_mask = np.zeros(size, bool)
+        take_mask[fill] = True
+        new_rows = np.zeros(size, np.int64)
+        new_rows[fill] = rows
+        new_attempts = np.zeros(size, np.int64)
+        new_attempts[fill] = attempts
+        p, d, steps, factor = self.batch(new_rows, new_attempts, size)
+        slots.state = slots.programs[2](
+            *slots.state, jnp.asarray(take_mask), p, d, self.mesh, self.smoothing, self.settings,
+            steps, factor,
+        )  # fmt: skip
+        slots.row[fill] = rows
+        slots.attempt[fill] = attempts
+        return True
+
+    def compact(self, slots: _Slots) -> None:
+        """The tail: the running collisions moved into fewer slots when the tail rule
+        (`_tail_size`, on a GPU `_tail_size_gpu`) gives fewer, in their slot order, the new
+        slots past them padding (stopped)."""
+        running, size = int((slots.row >= 0).sum()), len(slots.row)
+        smaller = _tail_size(running, size) if self.on_cpu else _tail_size_gpu(running, size)
+        if smaller >= size:
+            return
+        keep = np.flatnonzero(slots.row >= 0)
+        idx = np.concatenate([keep, np.full(smaller - len(keep), keep[0])])
+        flat, clock, y = jax.tree_util.tree_map(lambda a: a[..., idx], slots.state)
+        pad = np.arange(smaller) >= len(keep)
+        slots.state = (flat, clock, _stopped(y, pad))
+        slots.row = np.where(pad, -1, slots.row[idx])
+        slots.busy = np.where(pad, 0.0, slots.busy[idx])
+        slots.attempt = slots.attempt[idx]
+        slots.compactions += 1
+        slots.programs = self.programs_for(smaller, slots.state)
 
 
 def _tail_size(running: int, size: int) -> int:
