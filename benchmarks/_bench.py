@@ -1,6 +1,6 @@
 """Small pieces the benchmarks share: where results go (``--quick`` apart), goal 2's grid,
-pinning to one core, a batch of showcase-like collisions, a loop of Verlet substeps, and
-interleaved timing."""
+the sweep's default settings and a grid's rows, pinning to one core, a batch of showcase-like
+collisions, a loop of Verlet substeps, and interleaved timing."""
 
 from __future__ import annotations
 
@@ -61,6 +61,24 @@ def pin() -> None:
     raise SystemExit(subprocess.call(["taskset", "-c", core, sys.executable, *sys.argv], env=env))
 
 
+def sweep_settings():
+    """The settings `msfd_jax.sweep` runs with by default (two history samples, no shapes):
+    its signature's default, so that a benchmark times what a plain sweep runs."""
+    import inspect
+
+    import msfd_jax as m
+
+    return inspect.signature(m.sweep).parameters["settings"].default
+
+
+def grid_rows(grid: dict) -> list[dict]:
+    """The collisions of a sweep's grid (a dict of value lists) as one dict each, in the
+    order `msfd_jax.sweep` runs them (the Cartesian product, the last key fastest)."""
+    import itertools
+
+    return [dict(zip(grid, point, strict=True)) for point in itertools.product(*grid.values())]
+
+
 def batch_params(b: int, thickness=(0.5, 4.0)):
     """B collisions like the showcase (held, g = 10, v0 = 0.82), h_b/h_r spread over
     `thickness`, every field an array of shape (B,)."""
@@ -103,10 +121,11 @@ def half_way(mesh, b: int, dt: float, steps: int):
 
     import jax.numpy as jnp
 
+    # the sweep queue's slots themselves (no public API: `sweep` runs them to the end), so
+    # that the engine's substeps can be timed from a state half-way through the collisions
     from msfd_jax._sweeps import queue as _queue
-    from msfd_jax._sweeps import sweep as _sweep
 
-    settings = dataclasses.replace(_sweep.SWEEP_SETTINGS, t_max=10.0)
+    settings = dataclasses.replace(sweep_settings(), t_max=10.0)
     p = batch_params(b, (2.0, 3.0))
     smoothing = _queue.with_flags((0.0, 0.0))
     flat, clock, y = _queue._start(p, jnp.full(b, dt / 0.7), mesh, smoothing, settings, 1e7)
@@ -128,6 +147,7 @@ def substep_loop(steps: int, h, tolerance, listed: bool = False):
     import equinox as eqx
     import jax
 
+    # the batched engine's Verlet substep itself: what this loop times (no public API)
     from msfd_jax._batched import engine as _engine
 
     def loop(flat, y):

@@ -9,7 +9,8 @@ Same model and step as ``msfd_jax.simulate`` for a ring-on-beam scene:
   end: no spring), bar strains (l - l0)/l0, contact approach gap - |x_I - x_J| over every ring
   node x every beam node of OC;
 - sharp elastic-perfectly plastic return mappings (Eq. 2, 3) and the compression-only contact
-  spring with permanent set (Eq. 18), exactly as ``msfd_jax._model.laws`` with zero smoothing;
+  spring with permanent set (Eq. 18), exactly as ``msfd_jax.elastic_plastic`` and
+  ``msfd_jax.contact_spring`` with zero smoothing;
 - nodal forces by hand: the analytic gradient of the elastic energy (d atan2 / d bar vectors,
   d |b| / d b), i.e. Eq. (10);
 - velocity Verlet with the return mapping at the new positions, on diffrax's time grid for a
@@ -24,6 +25,8 @@ Run ``python benchmarks/_numba_reference.py`` to compare with msfd_jax on the sh
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
 import time
 
@@ -337,7 +340,7 @@ def simulate_arrays(
 
 def chain_constants(chain):
     """numpy copies of one msfd_jax Chain's constants, and its static layout."""
-    from msfd_jax._model.chain import Chain
+    from msfd_jax import Chain
 
     assert isinstance(chain, Chain)
     start, end = _KIND[chain.start], _KIND[chain.end]
@@ -367,12 +370,26 @@ def chain_constants(chain):
     return constants, layout
 
 
+@functools.cache
+def _critical_step():
+    """`msfd_jax.critical_step` jitted, as `simulate` computes the stability limit (once)."""
+    import equinox as eqx
+
+    from msfd_jax import critical_step
+
+    return eqx.filter_jit(critical_step)
+
+
 class Reference:
     """The numba model of one ring-on-beam scene and settings (constants from msfd_jax)."""
 
     def __init__(self, scene, settings):
-        import msfd_jax._batched.simulate as sim
-        from msfd_jax._model.contact import NodeToNodeContact
+        from msfd_jax import NodeToNodeContact
+
+        # how `simulate` resolves a run's cap and step bound (no public API): the reference
+        # runs the same time grid to the same bound
+        from msfd_jax._batched.simulate import max_steps_for
+        from msfd_jax._model.cap import concrete_time_cap
 
         if float(scene.contact_smoothing) != 0.0 or float(scene.yield_smoothing) != 0.0:
             raise ValueError("the numba reference implements the sharp laws only")
@@ -401,16 +418,16 @@ class Reference:
         if settings.t_max is None:
             # the derived cap (issue 12) keeps the grid of the former fixed cap 10 and only
             # extends it; the reference runs that grid with the cap resolved for this scene
-            settings = sim.resolve_cap(scene, settings)
-        dt, dt_crit = sim.step_size(scene, settings)
-        self.dt = float(dt)
-        self.dt_critical = float(dt_crit)
+            settings = dataclasses.replace(settings, t_max=concrete_time_cap(scene))
+        dt_crit = float(_critical_step()(scene))
+        self.dt = dt_crit * float(settings.safety) if settings.dt is None else float(settings.dt)
+        self.dt_critical = dt_crit
         self.t_max = float(settings.t_max)
         # diffrax's ConstantStepSize grid (diffrax/_step_size_controller/constant.py)
         self.substeps = int(settings.substeps)
         self.dt_macro = self.dt * self.substeps
         self.n_grid = int(np.ceil(self.t_max / np.nextafter(self.dt_macro, np.inf)))
-        self.max_steps = int(sim.max_steps_for(scene, settings))
+        self.max_steps = int(max_steps_for(scene, settings))
         self.rule = tuple(
             float(v)
             for v in (

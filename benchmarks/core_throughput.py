@@ -61,7 +61,6 @@ def main() -> None:
         args.slots, args.repeats = [16], 1
 
     import msfd_jax as m
-    from msfd_jax._sweeps import sweep as _sweep
 
     record: dict = dict(
         command="python benchmarks/core_throughput.py " + " ".join(sys.argv[1:]),
@@ -71,17 +70,13 @@ def main() -> None:
         jax=jax.__version__,
     )
     # --- the sweep: numba loop over the 64 collisions --------------------------------------
-    columns, _ = _sweep.collisions(GRID)
-    n = len(columns["thickness_ratio"])
+    designs = _bench.grid_rows(GRID)
+    n = len(designs)
     # the former fixed cap tau = 10 for both (issue 12 derives a cap per design; the numba
     # reference and the engine then still share a grid, but a fixed cap keeps the records of
     # earlier runs comparable)
-    settings = dataclasses.replace(_sweep.SWEEP_SETTINGS, t_max=10.0)
-    refs = [
-        Reference(m.ring_on_beam(m.CollisionParams(**{k: columns[k][i] for k in columns})),
-                  settings)
-        for i in range(n)
-    ]  # fmt: skip
+    settings = dataclasses.replace(_bench.sweep_settings(), t_max=10.0)
+    refs = [Reference(m.ring_on_beam(m.CollisionParams(**row)), settings) for row in designs]
     refs[0].compile()
     best, best_cpu, steps_numba = float("inf"), float("inf"), 0
     for _ in range(args.repeats):

@@ -6,9 +6,9 @@ it shrinks as the mesh is refined) and the batched core's cost per collision-ste
 slots (a `fori_loop` of substeps of 32 showcase-like collisions, sharp laws, as sweeps compile
 it; the meshes timed in turn, round after round, best round kept). Cost per collision = steps x
 cost per collision-step. Goal 6: it grows no faster than nodes x steps (contact work
-proportional to nodes). The contact is pruned (`_pruning.contact_blocks`: blocks out of reach
-skipped), so the substeps are timed from half-way through the collision, where the contact
-is engaged; before the pruning they were timed from the first touch and the dense contact
+proportional to nodes). The contact is pruned (`_batched.pruning.contact_blocks`: blocks out
+of reach skipped), so the substeps are timed from half-way through the collision, where the
+contact is engaged; before the pruning they were timed from the first touch and the dense contact
 (ring nodes x beam contact nodes pairs) grew as nodes^2. Both contact loops
 (``Settings.contact_loop``) are timed: "blocks" (a conditional per block, `simulate`'s
 default) and "listed" (the near blocks only, the sweeps' default).

@@ -47,8 +47,14 @@ import numpy as np
 
 import msfd_jax as m
 import optimise as o
+
+# the batched, differentiable solve of many designs (goal 5's batched jvp) and the sweep's
+# step bound for it: the public `sweep` is neither batched under jit nor differentiable
 from msfd_jax._sweeps.queue import solve_batch
-from msfd_jax._sweeps.sweep import step_bound
+from msfd_jax._sweeps.sweep import sweep_step_bound
+
+# the compiled programs behind `o.evaluate` and `o.gradient` (forward run, jvp, reverse) and
+# their arguments, lowered for the memory XLA plans for each (no public API)
 from optimise._gradient import _forward, _reverse
 from optimise._problem import _evaluate, arrays, objective_value_and_grad
 
@@ -125,7 +131,7 @@ def _batched(problem, first_forward: float, size: int) -> list[str]:
     mesh, settings = problem.mesh, problem.settings
     one = jax.vmap(lambda p: m.critical_step(m.ring_on_beam(p, mesh)))
     dt_crit = jax.jit(one)(params)
-    bound = max(step_bound(np.asarray(dt_crit), settings), settings.max_steps)
+    bound = max(sweep_step_bound(np.asarray(dt_crit), settings), settings.max_steps)
 
     def beam_share(thickness, adjoint=None):
         p = dataclasses.replace(params, thickness_ratio=thickness)

@@ -31,10 +31,13 @@ import _bench
 import numpy as np
 
 import msfd_jax as m
+
+# the retry policy (`--no-balance-retry` sets `BALANCE_RETRIES` to 0; the record states it
+# and `BALANCE_RETRY_ABOVE`): module settings that no public API exposes
 from msfd_jax._collision import attempts as _attempts
+
+# the date and package versions that msfd's own records carry (no public API)
 from msfd_jax._collision.provenance import now, versions
-from msfd_jax._model.params import _check_collapse
-from msfd_jax._sweeps.sweep import SWEEP_SETTINGS, sweep
 
 RANGES = {  # log-uniform
     "thickness_ratio": (0.2, 8.0),
@@ -62,7 +65,7 @@ def allowed(row: dict, mesh: m.Mesh) -> bool:
     if not mesh.collapse_contacts:
         return True
     try:
-        _check_collapse(row["slenderness"], mesh.ring_segments)
+        m.validate(m.CollisionParams(**row), mesh)
     except ValueError:
         return False
     return True
@@ -73,7 +76,7 @@ def run_seed(seed: int, n: int, mesh: m.Mesh, settings: m.Settings) -> tuple[lis
     index = [i for i, row in enumerate(every) if allowed(row, mesh)]
     rows = [every[i] for i in index]
     tick = time.perf_counter()
-    table = sweep(rows, mesh, settings)
+    table = m.sweep(rows, mesh, settings)
     wall = time.perf_counter() - tick
     out = []
     for i, row in enumerate(table.rows()):
@@ -187,7 +190,7 @@ def main(argv=None) -> dict:
         args.seeds = [0] if args.quick else [0, 1, 2]
     mesh = m.Mesh(6, 8, 2) if args.quick else m.Mesh()
     mesh = dataclasses.replace(mesh, collapse_contacts=args.collapse)
-    settings = SWEEP_SETTINGS
+    settings = _bench.sweep_settings()
     if args.t_max is not None:
         settings = dataclasses.replace(settings, t_max=args.t_max)
     if args.no_balance_retry:

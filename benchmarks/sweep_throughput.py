@@ -1,4 +1,4 @@
-"""Sweep throughput: collisions per second of `msfd_jax._sweeps.sweep.sweep` by chunk size and mesh.
+"""Sweep throughput: collisions per second of `msfd_jax.sweep` by chunk size and mesh.
 
 A 64-collision sweep (h_b/h_r from 0.25 to 5 in 16 steps x free/constrained x g = 5, 10; the
 paper's v0 = 0.82, Fig. 10) runs on the paper's mesh (15, 20 + 5) and on the small test mesh
@@ -35,7 +35,12 @@ import jax
 import numpy as np
 
 import msfd_jax as m
-from msfd_jax._sweeps.sweep import SWEEP_SETTINGS, collisions, step_bound, sweep
+
+# the step bound a sweep derives from its collisions' stability limits (no public API): set
+# beforehand, so that the one-chunk warm-up compiles the whole sweep's program
+from msfd_jax._sweeps.sweep import sweep_step_bound
+
+SWEEP_SETTINGS = _bench.sweep_settings()
 
 MESHES = {"paper": m.Mesh(), "small": m.Mesh(6, 8, 2)}
 GRID = {
@@ -47,20 +52,20 @@ GRID = {
 
 def bounded_settings(mesh: m.Mesh) -> m.Settings:
     """SWEEP_SETTINGS with the step bound of the sweep, so a one-chunk warm-up compiles it."""
-    columns, _ = collisions(GRID)
-    rows = [m.CollisionParams(**{k: v[i] for k, v in columns.items()}) for i in range(64)]
+    rows = [m.CollisionParams(**row) for row in _bench.grid_rows(GRID)]
     critical_step = eqx.filter_jit(m.critical_step)  # compiled once per mesh
     dt_crit = np.asarray([float(critical_step(m.ring_on_beam(p, mesh))) for p in rows])
-    return dataclasses.replace(SWEEP_SETTINGS, max_steps=step_bound(dt_crit, SWEEP_SETTINGS))
+    bound = sweep_step_bound(dt_crit, SWEEP_SETTINGS)
+    return dataclasses.replace(SWEEP_SETTINGS, max_steps=bound)
 
 
 def measure(mesh_name: str, chunk: int, shard: bool, settings: m.Settings) -> dict:
     mesh = MESHES[mesh_name]
-    first = [dict(zip(GRID, p, strict=True)) for p in _points()[:chunk]]
+    first = _bench.grid_rows(GRID)[:chunk]
     tick = time.perf_counter()
-    sweep(first, mesh, settings, chunk_size=chunk, progress=False, shard=shard)
+    m.sweep(first, mesh, settings, chunk_size=chunk, progress=False, shard=shard)
     compile_and_first = time.perf_counter() - tick
-    table = sweep(GRID, mesh, settings, chunk_size=chunk, progress=False, shard=shard)
+    table = m.sweep(GRID, mesh, settings, chunk_size=chunk, progress=False, shard=shard)
     wall = table.wall_time_s
     record = dict(
         mesh=mesh_name,
@@ -87,12 +92,6 @@ def measure(mesh_name: str, chunk: int, shard: bool, settings: m.Settings) -> di
     )
     print(json.dumps(record), flush=True)
     return record
-
-
-def _points():
-    import itertools
-
-    return list(itertools.product(*GRID.values()))
 
 
 def write(records: list[dict], results: Path) -> None:
