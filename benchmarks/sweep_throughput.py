@@ -114,7 +114,7 @@ def write(records: list[dict], results: Path) -> None:
         "",
         f"Written by `benchmarks/sweep_throughput.py` on {machine['platform']}, "
         f"{machine['cpus']} CPUs, jax {machine['jax']} ({machine['backend']}).",
-        f"Sweep: {_grid_text()}; default sweep settings (t_max = {float(SWEEP_SETTINGS.t_max):g}, "
+        f"Sweep: {_grid_text()}; default sweep settings ({_t_max_text()}, "
         f"settle rule, safety {float(SWEEP_SETTINGS.safety):g}).",
         "Collisions/s exclude compilation (each configuration is compiled on one chunk first).",
         "",
@@ -130,6 +130,12 @@ def write(records: list[dict], results: Path) -> None:
             f"{r['mean_steps']:.0f} | {r['verlet_steps_per_s']:.3g} | {r['failed']} |"
         )
     (results / "sweep.md").write_text("\n".join(lines) + "\n")
+
+
+def _t_max_text() -> str:
+    # the sweep's default is each collision's derived cap (t_max None, issue 12)
+    t_max = SWEEP_SETTINGS.t_max
+    return "t_max: each collision's derived cap" if t_max is None else f"t_max = {float(t_max):g}"
 
 
 def _grid_text() -> str:
