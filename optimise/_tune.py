@@ -34,7 +34,6 @@ each sample's sharp partition at the found design and the spread of every share.
 from __future__ import annotations
 
 import dataclasses
-import sys
 import time
 from collections.abc import Callable
 from typing import Any, NamedTuple
@@ -132,10 +131,6 @@ def progress_line(iteration: int, stage: Stage, design: Design, value, violation
         f"tune: it {iteration:3d}  s={stage.yield_smoothing:g} w={stage.contact_smoothing:g}  "
         f"{variables}  J={float(value):.3e}  worst miss={float(violation):.4f} K0"
     )
-
-
-def _stderr(line: str) -> None:
-    print(line, file=sys.stderr, flush=True)
 
 
 def _floats(fractions) -> dict[str, float]:

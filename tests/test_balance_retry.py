@@ -130,8 +130,8 @@ def test_run_reports_its_best_attempt_when_no_step_closes_the_balance(monkeypatc
     monkeypatch.setattr(_outputs, "BALANCE_TOLERANCE", 1e-12)
     attempts, solve = [], _outputs._solve_timed
 
-    def recorded(scene, settings):
-        out = solve(scene, settings)
+    def recorded(scene, settings, dt_critical=None):
+        out = solve(scene, settings, dt_critical)
         attempts.append(out[0])
         return out
 

@@ -18,7 +18,7 @@ from msfd_jax._batched import engine as _engine
 from msfd_jax._batched.flat import flatten
 from msfd_jax._reference import dynamics as _dynamics
 from msfd_jax._sweeps.queue import solve_batch
-from msfd_jax._sweeps.sweep import step_bound
+from msfd_jax._sweeps.sweep import sweep_step_bound
 
 
 def _scenes():
@@ -136,7 +136,7 @@ SETTINGS = m.Settings(t_max=0.3, history_points=2, shape_times=(), t_min=0.3)
 
 def _batch(params, adjoint=None):
     dt_crit = _critical(params)
-    bound = step_bound(np.asarray(dt_crit), SETTINGS)
+    bound = sweep_step_bound(np.asarray(dt_crit), SETTINGS)
     return jax.jit(
         lambda p: solve_batch(p, SMALL_MESH, SETTINGS, dt_crit, max_steps=bound, adjoint=adjoint)
     )(params)
@@ -154,7 +154,7 @@ def test_batched_forward_mode_gives_every_collision_its_own_derivative():
         span_ratio=jnp.full(3, 5.0), width_ratio=jnp.ones(3),
     )  # fmt: skip
     dt_crit = _critical(m.CollisionParams(thickness_ratio=h, **base))
-    bound = step_bound(np.asarray(dt_crit), SETTINGS)
+    bound = sweep_step_bound(np.asarray(dt_crit), SETTINGS)
 
     def beam_share(thickness, adjoint):
         p = m.CollisionParams(thickness_ratio=thickness, **base)

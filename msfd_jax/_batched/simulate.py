@@ -221,70 +221,78 @@ def array_module(x):
     return np if isinstance(x, np.ndarray | np.generic) else jnp
 
 
-def step_size(scene: Scene, settings: Settings, dt_critical=None):
-    """(dt, dt_crit): the step used and the stability limit (not differentiated).
+def step_bound(t_max, dt, substeps: int) -> int:
+    """The static bound on diffrax steps of runs to `t_max` at step `dt` (arrays: the largest).
 
-    `dt_critical`, when given, is the limit computed beforehand (a sweep computes every
-    collision's first, outside its sharded program); otherwise it is computed here.
+    t_max / (dt x substeps) diffrax steps with 2 % and 16 steps of margin, rounded up to a
+    power of two (>= 256), so that runs and sweeps of similar designs share one compiled
+    program. The one rule of single runs (`prepare`), sweeps and the optimiser.
     """
-    if dt_critical is None:  # a stored program when the CLI has switched the store on
-        dt_critical = _export.call(_critical_step, scene, name="critical_step")
-    dt_crit = jax.lax.stop_gradient(jnp.asarray(dt_critical, float))
-    dt = dt_crit * settings.safety if settings.dt is None else jnp.asarray(settings.dt)
-    return dt, dt_crit
+    ratio = np.asarray(t_max, np.float64) / (np.asarray(dt, np.float64) * substeps)
+    steps = float(np.max(ratio))
+    if not math.isfinite(steps):
+        raise ValueError(f"the step bound is not finite: t_max {t_max}, dt {dt}")
+    return 2 ** max(8, math.ceil(math.log2(1.02 * steps + 16)))
 
 
-def resolve_cap(scene: Scene, settings: Settings) -> Settings:
-    """`settings` with ``t_max=None`` replaced by the scene's derived cap (`time_cap`).
-
-    A concrete scene gives a Python float (so the step bound and histories follow from it);
-    a traced one (under jit/vmap) a traced cap, with `Settings.max_steps` then needed.
-    """
-    if settings.t_max is not None:
-        return settings
-    if any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(scene)):
-        cap = jax.lax.stop_gradient(time_cap(scene))  # a cap, not a design output
-    else:  # mostly on the host: eager jax ops each load a small program
-        cap = concrete_time_cap(scene)
-    return dataclasses.replace(settings, t_max=cap)
+def compiled_settings(settings: Settings, cap=None) -> Settings:
+    """`settings` as a compiled run takes them: shape times past the cap dropped (a short run
+    keeps the default times it reaches; with no concrete cap all are kept), and numbers as
+    float64 arrays, so that a new t_max, dt or safety compiles no new program."""
+    if cap is not None and not isinstance(cap, jax.core.Tracer):
+        kept = tuple(t for t in settings.shape_times if t <= float(np.max(cap)))
+        settings = dataclasses.replace(settings, shape_times=kept)
+    return jax.tree_util.tree_map(_as_float64, settings)
 
 
-def max_steps_for(scene: Scene, settings: Settings) -> int:
-    """Static step bound: t_max / dt rounded up to a power of two (few recompilations)."""
+def _traced(tree) -> bool:
+    return any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(tree))
+
+
+def stability_limit(scene: Scene):
+    """The scene's stability limit `critical_step` (a stored program when the CLI has switched
+    the store on), not differentiated: a step, not a design output."""
+    dt_critical = _export.call(_critical_step, scene, name="critical_step")
+    return jax.lax.stop_gradient(jnp.asarray(dt_critical, float))
+
+
+def derived_cap(scene: Scene):
+    """The scene's derived time cap (``Settings(t_max=None)``, `time_cap`): a Python float for
+    a concrete scene (computed mostly on the host), a traced, undifferentiated cap under
+    jit/vmap."""
+    if _traced(scene):
+        return jax.lax.stop_gradient(time_cap(scene))
+    return concrete_time_cap(scene)
+
+
+def max_steps_for(scene: Scene, settings: Settings, dt_critical=None, cap=None) -> int:
+    """`Settings.max_steps`, else the step bound (`step_bound`) of `scene`'s run: its cap and
+    stability limit computed here unless given. Needs concrete values (not under jit/vmap)."""
     if settings.max_steps is not None:
         return settings.max_steps
-    settings = resolve_cap(scene, settings)
-    if settings.dt is None:
-        dt_critical = _export.call(_critical_step, scene, name="critical_step")
-        values = (dt_critical, settings.safety, settings.t_max)
-    else:
-        values = (settings.dt, settings.t_max)
-    if any(isinstance(v, jax.core.Tracer) for v in values):
+    if cap is None:
+        cap = settings.t_max if settings.t_max is not None else derived_cap(scene)
+    if settings.dt is None and dt_critical is None:
+        dt_critical = stability_limit(scene)
+    if _traced((cap, dt_critical, settings.dt, settings.safety)):
         raise ValueError("under jit/vmap give Settings(max_steps=...) explicitly")
-    # on the host, as `step_size` would compute it: eager jax ops each load a program
-    dt = (
-        settings.dt
-        if settings.dt is not None
-        else np.asarray(values[0]) * np.asarray(settings.safety)
-    )
-    n = float(np.max(np.asarray(settings.t_max) / (np.asarray(dt) * settings.substeps)))
-    return 2 ** max(8, math.ceil(math.log2(1.02 * n + 16)))
+    dt = settings.dt if settings.dt is not None else np.asarray(dt_critical) * settings.safety
+    return step_bound(cap, dt, settings.substeps)
 
 
 @eqx.filter_jit
 def _simulate(
-    scene: Scene, settings: Settings, max_steps: int, adjoint, dt_critical=None
+    scene: Scene, settings: Settings, max_steps: int, adjoint, dt_critical, cap
 ) -> Solution:
-    # the batched core with a batch of one (issue 11): the diffrax clock is then the
-    # collision's own physical time, so histories and shapes are saved at physical times
+    # The batched core with a batch of one: the diffrax clock is then the collision's own
+    # physical time, so histories and shapes are saved at physical times. Every setting
+    # arrives resolved (`prepare`): the stability limit, the cap and the step bound.
     import diffrax  # at trace time: a stored program (`_export`) runs without diffrax
 
     flat = flatten(scene)
-    dt, dt_crit = step_size(scene, settings, dt_critical)
+    dt_crit = dt_critical
+    dt = dt_crit * settings.safety if settings.dt is None else settings.dt
     # t_max=None: this collision's derived cap, on its floor's grid (`make_clock`)
-    cap = None if settings.t_max is None else settings.t_max
-    if cap is None:
-        cap = jax.lax.stop_gradient(time_cap(scene))
     derived = None if settings.t_max is not None else cap[None]
     clock = make_clock(flat, dt[None], settings, max_steps, derived)
     y0 = batch_initial_state(flat)
@@ -376,23 +384,23 @@ def simulate(
 def prepare(scene: Scene, settings: Settings, adjoint=None, dt_critical=None) -> tuple:
     """The arguments of the compiled `_simulate` for `simulate(scene, settings, ...)`.
 
-    ``_simulate.lower(*prepare(...)).compile()`` compiles (or loads from the persistent
-    cache) ahead of the run, so that `run` can time compilation and the run apart.
+    Every setting of a run is resolved here, once, in this order: the stability limit
+    (`dt_critical`, else the scene's, `stability_limit`), the cap (`Settings.t_max`, else
+    the scene's derived cap, `derived_cap`), the step bound (`Settings.max_steps`, else
+    `step_bound`; under jit/vmap it must be given) and the sample times (`compiled_settings`:
+    shape times past the cap dropped; the history's `history_points` span [0, cap]). The
+    program then derives nothing again. ``_simulate.lower(*prepare(...)).compile()``
+    compiles (or loads from the persistent cache) ahead of the run, so that `run` can time
+    compilation and the run apart.
     """
-    # adjoint None stays None: `_core.solve` takes diffrax's RecursiveCheckpointAdjoint, the
+    if dt_critical is None:
+        dt_critical = stability_limit(scene)
+    dt_critical = jax.lax.stop_gradient(_as_float64(dt_critical))
+    cap = settings.t_max if settings.t_max is not None else derived_cap(scene)
+    bound = max_steps_for(scene, settings, dt_critical, cap)
+    # adjoint None stays None: `solver.solve` takes diffrax's RecursiveCheckpointAdjoint, the
     # same program, and a process that loads a stored program needs no diffrax for the key
-    cap = resolve_cap(scene, settings).t_max  # t_max stays None: _simulate derives it again
-    if not isinstance(cap, jax.core.Tracer):
-        # shape times past the cap are dropped (a short run keeps the default times it reaches)
-        kept = tuple(t for t in settings.shape_times if t <= float(cap))
-        settings = dataclasses.replace(settings, shape_times=kept)
-    # numbers as arrays, so that a new t_max or dt does not compile a new program
-    settings = jax.tree_util.tree_map(_as_float64, settings)
-    if dt_critical is not None and settings.max_steps is None:
-        raise ValueError("with dt_critical given, give Settings(max_steps=...) too")
-    # the step bound from the cap resolved above (time_cap is not evaluated a second time)
-    bound = max_steps_for(scene, dataclasses.replace(settings, t_max=cap))
-    return scene, settings, bound, adjoint, dt_critical
+    return scene, compiled_settings(settings, cap), bound, adjoint, dt_critical, _as_float64(cap)
 
 
 def _as_float64(v):

@@ -391,7 +391,8 @@ def run(
     ):
         first_text = first_text or diagnose(solution, scene)
         solved, attempt = smaller_step(solved), attempt + 1
-        solution, run_s, more = _solve_timed(scene, solved)
+        # the same scene: its stability limit is the first attempt's, not computed again
+        solution, run_s, more = _solve_timed(scene, solved, solution.dt_critical)
         compile_s += more
         kept = best[0]
         if bool(
@@ -433,12 +434,12 @@ def _host_balance(solution: Solution) -> np.ndarray:
     return jax.device_get(solution).energy_balance_error
 
 
-def _solve_timed(scene: Scene, settings: Settings):
+def _solve_timed(scene: Scene, settings: Settings, dt_critical=None):
     """(solution, run seconds, compile seconds): compiled (or loaded from the cache) first,
-    then run, so the two are timed apart (issue 11); with the CLI's store on, the program is
-    a stored serialized one (no tracing)."""
+    then run, so the two are timed apart; with the CLI's store on, the program is a stored
+    serialized one (no tracing)."""
     start = time.perf_counter()
-    args = prepare(scene, settings)
+    args = prepare(scene, settings, dt_critical=dt_critical)
     compiled = compile_program(_simulate, *args, name="simulate")
     compile_s = time.perf_counter() - start
     start = time.perf_counter()

@@ -89,14 +89,20 @@ def _real(name: str, value: Any) -> np.ndarray:
     return arr
 
 
-def _check_count(name: str, value: Any, minimum: int, maximum: int | None = None):
+def _check_count(
+    name: str,
+    value: Any,
+    minimum: int,
+    maximum: int | None = None,
+    small="below what the model needs",
+):
+    """Raise naming `name` unless `value` is an integer in [minimum, maximum] (a TypeError
+    for a non-integer, a ValueError out of range; `small` says why fewer is refused)."""
     allowed = f">= {minimum}" if maximum is None else f">= {minimum} and <= {maximum}"
     if isinstance(value, bool) or not isinstance(value, int | np.integer):
         raise TypeError(f"{name} must be an integer {allowed}, got {_show(value)}")
     if value < minimum:
-        raise ValueError(
-            f"{name} = {_show(value)} is below what the model needs; allowed {allowed}"
-        )
+        raise ValueError(f"{name} = {_show(value)} is {small}; allowed {allowed}")
     if maximum is not None and value > maximum:
         raise ValueError(f"{name} = {_show(value)} is too large; allowed {allowed}")
 

@@ -91,7 +91,9 @@ def _check_types(params, mesh):
         raise TypeError(f"mesh must be a msfd_jax.Mesh, got {mesh!r}")
 
 
-def _smoothing(value, name):
+def smoothing_width(value, name: str):
+    """A smoothing width (`contact_smoothing`, `yield_smoothing`) checked, as a float64
+    array: in [0, 1000], 0 the sharp law. The one check of scenes and sweeps."""
     _check_value(name, value, 0.0, 1.0e3, True, True)
     return jnp.asarray(value, dtype=jnp.float64)
 
@@ -186,8 +188,8 @@ def ring_on_beam(
         _ring_on_beam,
         params.as_arrays(),
         mesh,
-        _smoothing(contact_smoothing, "contact_smoothing"),
-        _smoothing(yield_smoothing, "yield_smoothing"),
+        smoothing_width(contact_smoothing, "contact_smoothing"),
+        smoothing_width(yield_smoothing, "yield_smoothing"),
         (smoothed(contact_smoothing), smoothed(yield_smoothing)),
         name="ring_on_beam",
     )
@@ -253,8 +255,8 @@ def ring_on_plate(
         (contact,),
         (v,),
         drive,
-        _smoothing(yield_smoothing, "yield_smoothing"),
-        _smoothing(contact_smoothing, "contact_smoothing"),
+        smoothing_width(yield_smoothing, "yield_smoothing"),
+        smoothing_width(contact_smoothing, "contact_smoothing"),
     )
 
 
@@ -278,7 +280,7 @@ def beam_midspan_load(
     beam = eqx.tree_at(lambda c: c.free, beam, beam.free.at[0, 1].set(0.0))
     v = jnp.zeros_like(beam.reference).at[0, 1].set(drive.velocity)
     return Scene(
-        (beam,), (), (v,), drive, _smoothing(yield_smoothing, "yield_smoothing"), jnp.zeros(())
+        (beam,), (), (v,), drive, smoothing_width(yield_smoothing, "yield_smoothing"), jnp.zeros(())
     )
 
 
@@ -316,4 +318,4 @@ def cantilever_tip_mass(
     free = jnp.ones_like(xy).at[0].set(0.0)
     beam = Chain("beam", "clamped", "free", xy, mass, free, section, mass_ratio)
     v = jnp.zeros_like(xy).at[-1, 1].set(velocity)
-    return Scene((beam,), (), (v,), None, _smoothing(yield_smoothing, "yield_smoothing"))
+    return Scene((beam,), (), (v,), None, smoothing_width(yield_smoothing, "yield_smoothing"))

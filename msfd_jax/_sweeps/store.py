@@ -28,8 +28,6 @@ import numpy as np
 from .._collision.provenance import dumps
 from .table import column, csv_rows
 
-SUFFIXES = (".csv", ".parquet")
-
 
 def open_store(path: str | Path):
     """The store for `path` by its suffix (``.csv`` or ``.parquet``); ValueError otherwise."""

@@ -23,7 +23,7 @@ import numpy as np
 
 from .._batched.peaks import PEAK_KEYS
 from .._batched.results import RESULTS
-from .._batched.simulate import Settings, _as_float64, undifferentiated
+from .._batched.simulate import Settings, compiled_settings, step_bound, undifferentiated
 from .._collision import attempts as _attempts
 from .._collision.attempts import (
     RETRY_OUTPUTS,
@@ -36,8 +36,8 @@ from .._collision.attempts import (
 from .._collision.provenance import mesh_json
 from .._collision.run import FRACTION_KEYS, balance_warning, diagnose, fractions
 from .._model.cap import T_MAX_CEILING
-from .._model.params import CollisionParams, Mesh, validate
-from .._model.scene import _ring_on_beam
+from .._model.params import CollisionParams, Mesh, _check_count, validate
+from .._model.scene import _ring_on_beam, smoothing_width
 from .._model.si import si_columns, si_sweep
 from .._runtime.mappings import release_if_near_limit
 from .._runtime.progress import SweepProgress as _SweepProgress
@@ -280,14 +280,8 @@ MAX_WORKERS = 1024
 
 
 def _check_workers(workers) -> int | None:
-    ok = workers is None or (
-        isinstance(workers, int) and not isinstance(workers, bool) and 1 <= workers <= MAX_WORKERS
-    )
-    if not ok:
-        raise ValueError(
-            f"workers must be None (one per core) or an integer >= 1 and <= {MAX_WORKERS}, "
-            f"got {workers!r}"
-        )
+    if workers is not None:  # None: one per core
+        _check_count("workers (None: one per core)", workers, 1, MAX_WORKERS, "too few")
     return workers
 
 
@@ -369,7 +363,7 @@ def _solve_collisions(
     if settings.max_steps is None:  # one per attempt (attempt a: the step halved a times)
         bounds, smaller = [], settings
         for _ in range(retries + 1):
-            bounds.append(step_bound(columns["_dt_critical"], smaller, caps))
+            bounds.append(sweep_step_bound(columns["_dt_critical"], smaller, caps))
             smaller = smaller_step(smaller)
         bounds = tuple(bounds)
         settings = dataclasses.replace(settings, max_steps=bounds[0])
@@ -431,52 +425,35 @@ def _layout_scene(mesh: Mesh):
     return _ring_on_beam(CollisionParams().as_arrays(), mesh, jnp.zeros(()), jnp.zeros(()))
 
 
-def step_bound(dt_critical: np.ndarray, settings: Settings, caps=None) -> int:
-    """`max_steps` for the smallest step of a sweep, rounded as `simulate` rounds it.
-
-    t_max / (dt x substeps) diffrax steps, dt = safety x dt_crit (or `Settings.dt`), with 2 %
-    and 16 steps of margin, rounded up to a power of two (>= 256) so that sweeps of similar
-    designs share one compiled program (the same rule as ``_simulate.max_steps_for``).
-    With ``Settings(t_max=None)`` t_max is each collision's derived cap `caps` (without them,
-    the largest cap, `T_MAX_CEILING`).
+def sweep_step_bound(dt_critical: np.ndarray, settings: Settings, caps=None) -> int:
+    """`max_steps` for the smallest step of a sweep (`simulate.step_bound`, the rule of
+    single runs): dt = safety x dt_crit (or `Settings.dt`); with ``Settings(t_max=None)``
+    t_max is each collision's derived cap `caps` (without them, the largest, `T_MAX_CEILING`).
     """
     dt = np.asarray(dt_critical) * float(settings.safety) if settings.dt is None else settings.dt
     t_max = settings.t_max
     if t_max is None:
-        t_max = T_MAX_CEILING if caps is None else np.asarray(caps, np.float64)
-    steps = float(np.max(np.asarray(t_max, np.float64) / (np.asarray(dt) * settings.substeps)))
-    if not math.isfinite(steps):
-        raise ValueError(f"the stability limit of a collision is not finite: {dt_critical}")
-    return 2 ** max(8, math.ceil(math.log2(1.02 * steps + 16)))
+        t_max = T_MAX_CEILING if caps is None else caps
+    return step_bound(t_max, dt, settings.substeps)
 
 
 def _sweep_settings(settings: Settings, mesh: Mesh) -> Settings:
-    # shape times past the cap dropped as `simulate` does (it cannot under jit); numbers as
-    # arrays so that filter_jit traces them (a new t_max or safety compiles nothing new); a
-    # sweep is never differentiated: the contact loop of the default is chosen by the mesh
-    settings = undifferentiated(settings, mesh)
-    if settings.t_max is not None:
-        kept = tuple(t for t in settings.shape_times if t <= float(settings.t_max))
-        settings = dataclasses.replace(settings, shape_times=kept)
-    return jax.tree_util.tree_map(_as_float64, settings)
+    # a sweep is never differentiated: the contact loop of the default is chosen by the mesh;
+    # shape times past an explicit cap dropped as in a single run (each row's derived cap
+    # is only known in its program)
+    return compiled_settings(undifferentiated(settings, mesh), settings.t_max)
 
 
 def _smoothing_arrays(contact_smoothing, yield_smoothing):
-    # the same checks `ring_on_beam` makes, done here on the concrete values
-    for name, value in (
-        ("contact_smoothing", contact_smoothing),
-        ("yield_smoothing", yield_smoothing),
-    ):
-        if not 0.0 <= float(value) <= 1.0e3:
-            raise ValueError(f"{name} = {float(value):g} is out of range; allowed [0, 1000]")
-    return jnp.asarray(contact_smoothing, float), jnp.asarray(yield_smoothing, float)
+    # checked on the concrete values, before anything is traced (the scenes' own check)
+    return (
+        smoothing_width(contact_smoothing, "contact_smoothing"),
+        smoothing_width(yield_smoothing, "yield_smoothing"),
+    )
 
 
 def _chunking(chunk_size: int, shard: bool):
-    if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
-        raise ValueError(f"chunk_size must be an integer >= 1, got {chunk_size!r}")
-    if chunk_size > MAX_CHUNK:  # every chunk is padded to it: a huge one never finishes
-        raise ValueError(f"chunk_size = {chunk_size} is too large; allowed >= 1 and <= {MAX_CHUNK}")
+    _check_count("chunk_size", chunk_size, 1, MAX_CHUNK, "too small")  # chunks are padded to it
     if not shard:
         return chunk_size, None
     devices = jax.devices()

@@ -25,7 +25,7 @@ from ..._batched.simulate import Settings, simulate
 from ..._collision.provenance import json_ready
 from ..._model.params import CollisionParams, Mesh, validate
 from ..._model.scene import ring_on_beam
-from ..._sweeps.sweep import SweepTable, collisions, step_bound, sweep
+from ..._sweeps.sweep import SweepTable, collisions, sweep, sweep_step_bound
 
 RING, BEAM = 0, 1  # chain order of ring_on_beam
 THICKEST = 5.0  # the largest h_b/h_r of the reproduction (Fig. 10): the smallest stable step
@@ -41,14 +41,14 @@ _CRITICAL: dict[Mesh, float] = {}
 
 
 def max_steps(quick: bool, settings: Settings = Settings()) -> int:
-    """One step bound per mesh and settings (`step_bound` of the thickest beam)."""
+    """One step bound per mesh and settings (`sweep_step_bound` of the thickest beam)."""
     key = mesh(quick)
     if key not in _CRITICAL:
         from ..._model.state import critical_step
 
         scene = ring_on_beam(CollisionParams(thickness_ratio=THICKEST), key)
         _CRITICAL[key] = float(eqx.filter_jit(critical_step)(scene))
-    return step_bound(np.asarray([_CRITICAL[key]]), settings)
+    return sweep_step_bound(np.asarray([_CRITICAL[key]]), settings)
 
 
 def partition_settings(quick: bool) -> Settings:
