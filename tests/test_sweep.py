@@ -270,6 +270,9 @@ def test_more_collisions_than_slots_refill_and_equal_single_runs(one_worker):
     assert len(table) == 20
     assert table.timing["slots"] == 16 and table.timing["workers"] == 1
     assert table.timing["segments"] > 1  # the refilled slots ran on after the first ones
+    # a tail that runs for less than a compilation stays in its slots (`_queue.TAIL_PAYBACK`)
+    assert table.timing["run_s"] < table.timing["compile_s"]
+    assert table.timing["compactions"] == 0
     for i, row in enumerate(ROWS20):
         single = m.run(m.CollisionParams(**row), SMALL_MESH, SHORT, contact_smoothing=SMOOTH)
         out = single.to_json()
@@ -278,7 +281,7 @@ def test_more_collisions_than_slots_refill_and_equal_single_runs(one_worker):
             assert table[key][i] == pytest.approx(value, rel=1e-9, abs=1e-12), (i, key)
 
 
-def test_worker_threads_give_the_same_rows(one_worker):
+def test_worker_threads_give_the_same_rows(one_worker, monkeypatch):
     """Two threads of 16 slots fed from one queue give exactly the rows of one thread: a
     collision's result does not depend on its slot. 40 collisions: refills in both."""
     rows = ROWS20 + [{**r, "mass_ratio": 5.0} for r in ROWS20]
@@ -292,7 +295,11 @@ def test_worker_threads_give_the_same_rows(one_worker):
         first, second = np.asarray(two[key])[:20], np.asarray(two[key])[20:]
         np.testing.assert_array_equal(np.asarray(one_worker[key]), first, err_msg=key)
         np.testing.assert_array_equal(np.asarray(one[key]), second, err_msg=key)
-    # one worker of 32 slots: 8 refills, then the tail moves into a program of 16 slots
+    # one worker of 32 slots: 8 refills, then the tail moves into a program of 16 slots (the
+    # payback rule off: here the tail is far shorter than a compilation)
+    from msfd_jax._sweeps import queue as _queue
+
+    monkeypatch.setattr(_queue, "TAIL_PAYBACK", 0.0)
     wide = sweep(rows, SMALL_MESH, SHORT, chunk_size=32, contact_smoothing=SMOOTH, workers=1)
     assert wide.timing["slots"] == 32 and wide.timing["compactions"] >= 1
     for key in OUTPUTS:
@@ -324,8 +331,11 @@ def test_the_scalar_tail_gives_the_same_rows(one_worker, monkeypatch):
 
     assert _queue._tail_size(3, 16) == 4 and _queue._tail_size(1, 4) == 1
     assert _queue._tail_size(5, 16) == 16 and _queue._tail_size(9, 64) == 16
-    monkeypatch.setattr(_queue, "TAIL_SLOTS", 0)  # the tail stays at MIN_SLOTS
+    # `one_worker`'s tail stayed at 16 slots (a tail shorter than a compilation); with the
+    # payback rule off this one moves to 4, 2 and 1
+    monkeypatch.setattr(_queue, "TAIL_PAYBACK", 0.0)
     wide = sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=1)
+    assert wide.timing["compactions"] >= 2 and one_worker.timing["compactions"] == 0
     for key in OUTPUTS:
         if key != "wall_time_s":
             np.testing.assert_array_equal(np.asarray(wide[key]), np.asarray(one_worker[key]), key)
@@ -353,6 +363,7 @@ def test_the_gpu_tail_rule_gives_the_same_rows(one_worker, monkeypatch):
     assert _queue._tail_size_gpu(3, floor) == floor and _queue._tail_size_gpu(0, 8192) == 8192
     monkeypatch.setattr(_queue, "platform", lambda: "gpu")
     monkeypatch.setattr(_queue, "GPU_TAIL_FLOOR", 4)
+    monkeypatch.setattr(_queue, "TAIL_PAYBACK", 0.0)
     gpu = sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=1)
     assert gpu.timing["compactions"] == 1  # 16 slots, then 4
     for key in OUTPUTS:

@@ -48,6 +48,12 @@ MIN_SLOTS = 16
 # and a collision's arithmetic is the same bit for bit (tests/test_sweep.py).
 TAIL_SLOTS = 4
 DEFAULT_SEGMENT = 64  # diffrax steps (x substeps Verlet steps) between refills
+# A tail moves to a program of fewer slots not compiled yet only once its worker has run its
+# segments for TAIL_PAYBACK x the first programs' compilation: the tail lasts about one
+# collision, so in a sweep that ran for less than a compilation a new program cannot pay for
+# itself (a 6-collision sweep of a coarse mesh compiled three more sizes for a tail of
+# 0.3 s). Programs already compiled (or loaded from the store) are always used.
+TAIL_PAYBACK = 1.0
 
 
 def _scenes(params: CollisionParams, mesh: Mesh, smoothing) -> tuple[FlatScene, Array | None]:
@@ -467,12 +473,15 @@ class _SweepQueue:
 
     def compact(self, slots: _Slots) -> None:
         """The tail: the running collisions moved into fewer slots when the tail rule
-        (`_tail_size`, on a GPU `_tail_size_gpu`) gives fewer, in their slot order, the new
-        slots past them padding (stopped)."""
+        (`_tail_size`, on a GPU `_tail_size_gpu`) gives fewer and the new program pays for
+        itself (`TAIL_PAYBACK`), in their slot order, the new slots past them padding
+        (stopped)."""
         running, size = int((slots.row >= 0).sum()), len(slots.row)
         smaller = _tail_size(running, size) if self.on_cpu else _tail_size_gpu(running, size)
         if smaller >= size:
             return
+        if smaller not in self.programs and slots.segment_s < TAIL_PAYBACK * self.compile_times[0]:
+            return  # a new compilation would cost more than the tail can save
         keep = np.flatnonzero(slots.row >= 0)
         idx = np.concatenate([keep, np.full(smaller - len(keep), keep[0])])
         flat, clock, y = jax.tree_util.tree_map(lambda a: a[..., idx], slots.state)
