@@ -190,3 +190,25 @@ def test_msfd_run_with_a_stored_program_imports_no_diffrax(tmp_path):
     assert lines[1] == "[]"
     # the CLI says it compiles only when it does: not when it loads the stored programs
     assert notes == [True, False]
+
+
+def test_a_run_refuses_float32_after_the_switch_was_turned_off():
+    # `import msfd_jax` turns float64 on for the process; turned off afterwards, a run and a
+    # sweep say so instead of computing silently in float32 (README, Gotchas)
+    code = (
+        "import jax, msfd_jax as m\n"
+        "jax.config.update('jax_enable_x64', False)\n"
+        "import warnings; warnings.simplefilter('ignore')\n"
+        "for call in (lambda: m.run(m.CollisionParams(), m.Mesh(6, 8, 2)),\n"
+        "             lambda: m.sweep({'thickness_ratio': [1.0]}, m.Mesh(6, 8, 2))):\n"
+        "    try:\n"
+        "        call()\n"
+        "    except RuntimeError as e:\n"
+        "        print('refused' if 'jax_enable_x64' in str(e) else e)\n"
+        "print('done')"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=600, cwd=ROOT
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["refused", "refused", "done"], done.stdout

@@ -37,7 +37,7 @@ from .results import (  # noqa: F401  (the former constants, re-exported)
 )
 from .solver import chain_state, history_of, solve
 
-if TYPE_CHECKING:  # diffrax is imported where a solve is traced (`_simulate`, `_core.solve`)
+if TYPE_CHECKING:  # diffrax is imported where a solve is traced (`_simulate`, `solver.solve`)
     import diffrax
 
 _critical_step = eqx.filter_jit(critical_step)
@@ -82,8 +82,8 @@ class Settings(eqx.Module):
     **Arguments:**
     - `safety`: dt = safety * dt_crit, dt_crit = 2/omega_max the computed stability limit.
       0.7 is the largest step that keeps the partition within 1e-3 K0 of a step-converged
-      reference with a 30 % margin on the collisions of docs/accuracy.md (re-chosen after
-      the contact fix of issue 9; it was 0.6).
+      reference with a 30 % margin on the collisions of docs/accuracy.md (re-chosen once the
+      contact springs had their Eq. 18 stiffness, R/h_r times stiffer; it was 0.6).
     - `dt`: a fixed step that overrides `safety` (non-dimensional time).
     - `t_max`: cap on the run length; None (the default) derives each collision's cap from
       its inputs (`msfd_jax._model.cap.time_cap`: 3 x the time the structures' collapse loads take
@@ -97,11 +97,12 @@ class Settings(eqx.Module):
     - `history_points`: samples of the energy/contact histories over [0, t_max].
     - `shape_times`: times at which node positions are saved.
     - `energy_guard`: stop when |energy balance error| exceeds this fraction of K0 (0.05:
-      kept after issue 12's reliability benchmark, docs/stability.md: once joint folds past pi
-      no longer book spurious dissipation, what a successful run leaves open above 1e-4 K0 is
-      the sharp contact at the default step in slow, light impacts, up to ~4e-2 K0 of a small
-      K0, which a smaller step closes; `run` and `sweep` rerun such runs at half the step, at
-      most twice (issue 12 item 1, `_attempts.BALANCE_RETRIES`), and report the best attempt;
+      kept after the reliability benchmark over random designs, docs/stability.md: once
+      joint folds past pi no longer book spurious dissipation, what a successful run leaves
+      open above 1e-4 K0 is the sharp contact at the default step in slow, light impacts, up
+      to ~4e-2 K0 of a small K0, which a smaller step closes; `run` and `sweep` rerun such
+      runs at half the step, at most twice (`_collision.attempts.BALANCE_RETRIES`), and
+      report the best attempt;
       one still open keeps its status with `balance_warning` and a message saying how far,
       while an unstable step or a collapse the model cannot follow still trips the guard).
     - `max_steps`: static bound on the number of diffrax steps (None: from t_max / dt).
@@ -199,7 +200,7 @@ class Solution(eqx.Module):
     history: dict
     shape_ts: Array
     shapes: tuple
-    peaks: dict  # `_peaks.PEAK_KEYS`, kept at every step (ring on beam only; else {})
+    peaks: dict  # `peaks.PEAK_KEYS`, kept at every step (ring on beam only; else {})
 
     @property
     def energy_balance_error(self):
@@ -287,7 +288,7 @@ def _simulate(
     # The batched core with a batch of one: the diffrax clock is then the collision's own
     # physical time, so histories and shapes are saved at physical times. Every setting
     # arrives resolved (`prepare`): the stability limit, the cap and the step bound.
-    import diffrax  # at trace time: a stored program (`_export`) runs without diffrax
+    import diffrax  # at trace time: a stored program (`_runtime.export`) runs without diffrax
 
     flat = flatten(scene)
     dt_crit = dt_critical
@@ -381,6 +382,18 @@ def simulate(
     return _simulate(*prepare(scene, settings, adjoint, dt_critical))
 
 
+def require_float64() -> None:
+    """Refuse to run in float32: `import msfd_jax` switches JAX to float64 for the process
+    (``jax_enable_x64``), and the energy balance (1e-12 K0 in the regression record) and the
+    stiff contact need it; code that switched it off afterwards gets this message, not a
+    silently inaccurate run."""
+    if not jax.config.jax_enable_x64:
+        raise RuntimeError(
+            "msfd_jax computes in float64, but jax_enable_x64 has been switched off after "
+            "`import msfd_jax`; switch it back on (jax.config.update('jax_enable_x64', True))"
+        )
+
+
 def prepare(scene: Scene, settings: Settings, adjoint=None, dt_critical=None) -> tuple:
     """The arguments of the compiled `_simulate` for `simulate(scene, settings, ...)`.
 
@@ -393,6 +406,7 @@ def prepare(scene: Scene, settings: Settings, adjoint=None, dt_critical=None) ->
     compiles (or loads from the persistent cache) ahead of the run, so that `run` can time
     compilation and the run apart.
     """
+    require_float64()
     if dt_critical is None:
         dt_critical = stability_limit(scene)
     dt_critical = jax.lax.stop_gradient(_as_float64(dt_critical))

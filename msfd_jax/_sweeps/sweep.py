@@ -1,7 +1,7 @@
-"""Sweeps: many ring-on-beam collisions on the batched core, fed from one queue (`_queue`).
+"""Sweeps: many ring-on-beam collisions on the batched core, fed from one queue (`queue`).
 
 A sweep is a grid (a dict of value lists) or a list of collisions (a list of dicts), in groups
-or in SI (`_si.si_sweep`), every value validated before anything is traced. The result is a
+or in SI (`_model.si.si_sweep`), every value validated before anything is traced. The result is a
 `SweepTable`, one row per collision with its inputs and every output of ``msfd run --json``;
 a failed run is a row with its status and `diagnose`'s message, never a silent NaN.
 """
@@ -23,7 +23,13 @@ import numpy as np
 
 from .._batched.peaks import PEAK_KEYS
 from .._batched.results import RESULTS
-from .._batched.simulate import Settings, compiled_settings, step_bound, undifferentiated
+from .._batched.simulate import (
+    Settings,
+    compiled_settings,
+    require_float64,
+    step_bound,
+    undifferentiated,
+)
 from .._collision import attempts as _attempts
 from .._collision.attempts import (
     RETRY_OUTPUTS,
@@ -65,12 +71,12 @@ SOLVED_OUTPUTS = (
     *PEAK_KEYS,
     "wall_time_s",
 )
-OUTPUTS = (*SOLVED_OUTPUTS, *RETRY_OUTPUTS)  # retries, safety: issue 12 (`_retry`)
+OUTPUTS = (*SOLVED_OUTPUTS, *RETRY_OUTPUTS)  # retries, safety: `_collision.attempts`
 # Histories are (history_points, ...) per collision: a sweep keeps only the final partition,
 # so by default it saves two history samples and no shapes (the outputs do not depend on them).
 SWEEP_SETTINGS = Settings(history_points=2, shape_times=())
 MAX_CHUNK = 65_536  # slots or vmapped rows per compiled call (chunks are padded to it)
-DEFAULT_CHUNK = DEFAULT_SLOTS  # a CPU's slots per worker (None: `_queue.default_slots`)
+DEFAULT_CHUNK = DEFAULT_SLOTS  # a CPU's slots per worker (None: `queue.default_slots`)
 
 
 def collisions(
@@ -184,7 +190,7 @@ def sweep(
       the cluster's workers; `compile_cache`: the directory of JAX's persistent compile cache
       that the workers use (None: as their JAX is configured).
     - `workers`: threads of an in-process sweep, each with its own `chunk_size` slots, all
-      fed from one queue (None: one per core this process may use, `_queue.default_workers`;
+      fed from one queue (None: one per core this process may use, `queue.default_workers`;
       1 on an accelerator). The rows do not depend on it (a collision's result does not
       depend on its slot). A cluster's tasks run one thread each (its workers are the cores):
       with a `client`, `workers` must stay None.
@@ -217,7 +223,7 @@ def sweep(
             raise ValueError(f"output {str(output)!r} exists; resume it or remove it")
         if store.exists():
             store.check_meta(meta)
-            finished = with_retry_columns(store.finished())  # a store older than issue 12
+            finished = with_retry_columns(store.finished())  # a store from before retries
             found = match_rows(columns, finished, INPUTS, output)
             kept = found >= 0
             parts.append((np.flatnonzero(kept), {k: finished[k][found[kept]] for k in OUTPUTS}))
@@ -286,7 +292,7 @@ def _check_workers(workers) -> int | None:
 
 
 def _numerics(mesh: Mesh, settings: Settings, contact: float, yield_: float) -> dict:
-    """What a resumed sweep must share with the rows it keeps (`_store` checks it)."""
+    """What a resumed sweep must share with the rows it keeps (`store` checks it)."""
     return {
         "mesh": {k: repr(getattr(mesh, k)) for k in mesh_json(mesh)},
         "settings": {f.name: repr(getattr(settings, f.name)) for f in dataclasses.fields(settings)},
@@ -301,8 +307,8 @@ def _assemble(parts, n: int) -> dict[str, np.ndarray]:
 
 
 def solve_collisions(columns, mesh: Mesh = Mesh(), settings=SWEEP_SETTINGS, **kw):
-    """`_solve_collisions` with the rows `_attempts.needs_retry` names solved again at a
-    smaller step (`_retry`): in the queue engine's own queue, or with `shard` round by round."""
+    """`_solve_collisions` with the rows `_collision.attempts.needs_retry` names solved again
+    at a smaller step: in the queue engine's own queue, or with `shard` round by round."""
     if kw.get("shard"):
         return solve_with_retries(_solve_collisions, columns, mesh, settings, **kw)
     return _solve_collisions(columns, mesh, settings, **kw)
@@ -332,6 +338,7 @@ def _solve_collisions(
     as they finish, and for progress); `on_stage(text)` names the stage that starts;
     `on_timing(timing)` receives the queue engine's timing (`SweepTable.timing`).
     """
+    require_float64()
     missing = sorted(set(INPUTS) - set(columns))
     if missing:
         raise ValueError(f"solve_collisions needs every input column; missing {missing}")
@@ -352,7 +359,7 @@ def _solve_collisions(
     limits = [_run_chunk(_critical_chunk, columns, c, chunk_size, mesh, smoothing) for c in chunks]
     columns["_dt_critical"] = np.concatenate([d for d, _, _ in limits])
     caps = np.concatenate([c for _, c, _ in limits])  # the derived caps (Settings.t_max None)
-    # the queue's order: the longest runs first (a guess from the collapse loads, `_cap`), so
+    # the queue's order: the longest runs first (a guess from the collapse loads, `_model.cap`), so
     # that the tail is short; a row's result does not depend on when it runs
     t_end = np.concatenate([e for _, _, e in limits])
     t_end = np.minimum(t_end, caps if settings.t_max is None else float(settings.t_max))
@@ -379,7 +386,8 @@ def _solve_collisions(
                 on_rows(np.asarray(c), parts[-1])
         return {k: np.concatenate([p[k] for p in parts]) for k in SOLVED_OUTPUTS}
     # the batched core: `chunk_size` slots refilled from the queue as collisions stop, and
-    # a row to be solved again at a smaller step handed back to the queue (`_retry.Attempts`)
+    # a row to be solved again at a smaller step handed back to the queue
+    # (`_collision.attempts.Attempts`)
     parts = []
     scene = _layout_scene(mesh)
 
@@ -426,7 +434,7 @@ def _layout_scene(mesh: Mesh):
 
 
 def sweep_step_bound(dt_critical: np.ndarray, settings: Settings, caps=None) -> int:
-    """`max_steps` for the smallest step of a sweep (`simulate.step_bound`, the rule of
+    """`max_steps` for the smallest step of a sweep (`_batched.simulate.step_bound`, the rule of
     single runs): dt = safety x dt_crit (or `Settings.dt`); with ``Settings(t_max=None)``
     t_max is each collision's derived cap `caps` (without them, the largest, `T_MAX_CEILING`).
     """
