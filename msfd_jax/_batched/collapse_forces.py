@@ -1,4 +1,4 @@
-"""The batched core's forces of the collapse contacts (issue 12, `_collapse`), batch last.
+"""The batched core's forces of the collapse contacts (`_model.collapse`), batch last.
 
 Kept apart from `engine.batch_response`'s loop (which handles the paper's contact sets) so that a
 scene without collapse contacts runs exactly the code it ran before; `batch_response` and

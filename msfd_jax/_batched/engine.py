@@ -1,4 +1,4 @@
-"""The batched core (issue 11): closed-form forces and the Verlet step on a `FlatScene`.
+"""The batched core: closed-form forces and the Verlet step on a `FlatScene`.
 
 Every array ends in the batch axis B. The nodal forces are Eq. (10) in closed form, as the
 numba reference writes them, not a `jax.vjp` of the kinematics (tests/test_engine.py checks
@@ -45,7 +45,7 @@ from .pruning import total as _total
 from .results import RESULTS
 
 FOLD_LIMIT = float(np.pi)  # plastic joint rotation at which a run stops (bars folded through)
-GRID_SPAN = 10.0  # the grid of a derived cap: that of the former fixed cap (= _cap.T_MAX_FLOOR)
+GRID_SPAN = 10.0  # a derived cap's grid: the former fixed cap's (`_model.cap.T_MAX_FLOOR`)
 _MIRROR = np.array([1.0, -1.0])[None, :, None]  # diag(1, -1) acting on (n, 2, B) vectors
 
 
@@ -75,7 +75,7 @@ class BatchState(eqx.Module):
     k: Float[Array, " B"]
     done: Float[Array, " B"]
     code: Float[Array, " B"]
-    peaks: Float[Array, "P B"] | tuple  # `_peaks.PEAK_KEYS`; () if the scene tracks none
+    peaks: Float[Array, "P B"] | tuple  # `peaks.PEAK_KEYS`; () if the scene tracks none
 
 
 class Clock(eqx.Module):
@@ -161,7 +161,8 @@ def _joints(flat: FlatScene, c, bars):
 
 
 def _yield_width(flat: FlatScene):
-    # (1, B): the laws see arrays of one rank; None: the sharp law alone (static, issue 11)
+    # (1, B): the laws see arrays of one rank; None: the sharp law alone (static: a scene whose
+    # width is known to be zero compiles no softplus)
     return flat.yield_smoothing[None] if flat.smooth_yield else None
 
 
@@ -189,7 +190,7 @@ def _chain_response(flat: FlatScene, c, x, rotation_p, strain_p):
         return _nodal(grad_bar), rotation_p[c.joint : c.joint], strain1, 0.0, axial
     (ax, ay, bx, by), angle = _joints(flat, c, bars)
     sl_j = slice(c.joint, c.joint + c.n_joints)
-    angle = unwrap_near(angle, rotation_p[sl_j])  # a fold past pi: no jump (issue 12)
+    angle = unwrap_near(angle, rotation_p[sl_j])  # a fold past pi: no 2 pi jump
     k, w = flat.joint_stiffness[sl_j], flat.joint_weight[sl_j]
     moment, rotation1, d_rot = elastic_plastic(
         angle, rotation_p[sl_j], k, flat.plastic_moment[sl_j], ys
@@ -266,7 +267,7 @@ def batch_response(
     for p, gap, k, fy, ps in zip(
         flat.pairs, flat.gap, flat.stiffness, flat.yield_force, permanent_set, strict=True
     ):
-        if isinstance(p, COLLAPSE_LAYOUTS):  # issue 12: only in scenes that have them
+        if isinstance(p, COLLAPSE_LAYOUTS):  # only in scenes that have them: others run as before
             fc, ps1, f, dc, _ = collapse_response(flat, p, x, gap, k, fy, ps)
             force = force + fc
             new_set.append(ps1)
@@ -465,7 +466,7 @@ def advance(flat: FlatScene, clock: Clock, s: BatchState, substeps: int, rule) -
     err = energy_error(flat, y, clock.k0)
     non_finite = ~jnp.isfinite(err)
     # a joint folded past pi: its bars pass through each other, which the model (no contact
-    # of the ring with itself or the block) cannot follow; stopped as a broken run (issue 12)
+    # of the ring with itself or the block) cannot follow; stopped as a broken run
     folded = jnp.any(jnp.abs(y.plastic_rotation) > FOLD_LIMIT, axis=0)
     broken = non_finite | (jnp.abs(err) > rule.energy_guard) | folded
     settled = jnp.zeros_like(broken)

@@ -1,4 +1,4 @@
-"""A scene as flat arrays with the batch on the last axis (the batched core's model, issue 11).
+"""A scene as flat arrays with the batch on the last axis (the batched core's model).
 
 `flatten` turns one `Scene` into a `FlatScene`: every node of every chain in one array (the
 chains are static slices of it), every bar and every joint of the scene in one array each,
@@ -57,8 +57,8 @@ class PlaneLayout(NamedTuple):
 
 
 class SelfPairLayout(NamedTuple):
-    """Ring-on-ring contact (issue 12): nodes [a, a + n) against themselves, the pairs
-    i < j with j - i >= separation (`_collapse.SelfContact`); pair arrays (n, n, B)."""
+    """Ring-on-ring contact of a collapsing ring: nodes [a, a + n) against themselves, the pairs
+    i < j with j - i >= separation (`_model.collapse.SelfContact`); pair arrays (n, n, B)."""
 
     a: int
     n: int
@@ -67,7 +67,7 @@ class SelfPairLayout(NamedTuple):
 
 class FacePlaneLayout(NamedTuple):
     """Nodes [a, a + n_a) against the plane y = y[anchor], moving with node `anchor`
-    (flat index; `_collapse.BlockFaceContact`); the "gap" array holds the offset."""
+    (flat index; `_model.collapse.BlockFaceContact`); the "gap" array holds the offset."""
 
     a: int
     n_a: int
@@ -81,7 +81,7 @@ class Tracked(NamedTuple):
     """The nodes whose motion a ring-on-beam run follows at every step (flat indices): the
     beam's mid-span node O, the ring's front node S (on the symmetry plane, first to touch
     the beam) and the block node G (the ring's last node, which carries half the block).
-    The engine keeps the design quantities' running peaks from them (`_engine.PEAK_KEYS`)."""
+    The engine keeps the design quantities' running peaks from them (`peaks.PEAK_KEYS`)."""
 
     midspan: int
     front: int

@@ -5,9 +5,9 @@ deflection, the largest contact force, the impulse...). Read from saved history 
 depend on the sampling: a force spike between two samples is missed, and a run saved on a
 coarse grid reports a lower peak. The engine therefore updates them inside the time loop, at
 every step, from the state it has just computed (`update`), for the scenes that have a ring
-and a beam (`_flat.Tracked`); other scenes carry an empty tuple and compile nothing for it.
+and a beam (`flat.Tracked`); other scenes carry an empty tuple and compile nothing for it.
 
-All values are non-dimensional and refer to the half model (`_si` maps them to SI and to the
+All values are non-dimensional and refer to the half model (`_model.si` maps them to SI and to the
 whole structure). With y the impact direction's axis:
 
 - ``peak_deflection``: max |y_O - y_O(0)|, the beam's mid-span node O (units of R);

@@ -1,4 +1,4 @@
-"""Pruned node-to-node contact (issue 11): a set evaluated in blocks, far blocks skipped.
+"""Pruned node-to-node contact: a set evaluated in blocks, far blocks skipped.
 
 A block of ring nodes x beam nodes is skipped when its two bounding boxes are at least the gap
 apart in every collision of the batch (`near_blocks`), which is exact (such pairs carry no
@@ -38,7 +38,7 @@ def pad(a, before, after):
 def total(a):
     """Sum over every axis but the batch, as a matrix-vector product. Written as a reduction
     over the major axes, XLA:CPU fused it with the contact law into the step's two slowest
-    kernels (issue 11: a per-kernel trace of the substep at B = 64)."""
+    kernels (a per-kernel trace of the substep at B = 64)."""
     if a.ndim == 1:
         return a
     flat = jnp.reshape(a, (-1, a.shape[-1]))

@@ -38,7 +38,7 @@ class RESULTS(enum.IntEnum):
         "the energy balance error exceeded Settings.energy_guard",
     )
     max_steps = 4, "max steps", "stopped after Settings.max_steps steps before the time cap"
-    # A joint folded past pi (`_engine.FOLD_LIMIT`): its bars pass through each other, which
+    # A joint folded past pi (`engine.FOLD_LIMIT`): its bars pass through each other, which
     # the model cannot follow, so the run stops there with its energy balance still closed;
     # "energy balance broken" would name the wrong cause. A smaller step does not help.
     folded = (
@@ -54,7 +54,9 @@ class RESULTS(enum.IntEnum):
 
 
 # A run that reports success (settled, time limit) closes its energy balance within this
-# fraction of K0, or says it does not: `balance_warning` and a suffix of its message (issue 12).
+# fraction of K0, or says it does not (`balance_warning` and a suffix of its message), so that an
+# open balance is never passed off as a clean success; `run` and `sweep` first rerun such a run
+# at a smaller step (`_collision.attempts`).
 BALANCE_TOLERANCE = 1e-4
 
 # Aliases kept for the former ``range(5)`` constants and the name tuple.

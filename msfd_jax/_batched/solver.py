@@ -1,6 +1,6 @@
 """The batched core as a diffrax solver, and one batched solve.
 
-`BatchedVerlet` is the project's diffrax solver: each diffrax step advances every
+`BatchedVerlet` (`verlet`) is the project's diffrax solver: each diffrax step advances every
 collision of the batch by ``substeps`` Verlet steps on its own time grid and applies its
 stopping rule (`engine.advance`). The same solver serves a single run (a batch of one, whose
 diffrax time is then the physical time, so histories are saved with ``SaveAt(ts=...)`` as
@@ -8,7 +8,7 @@ before), a fixed batch, the sweep's segments between refills, and gradients (dif
 adjoints).
 
 diffrax is imported only when a solve is traced (`solve`), not with this module: a process
-that runs stored programs (`_export`, the CLI's warm start) never needs it, and importing it
+that runs stored programs (`_runtime.export`, the CLI's warm start) never needs it, and importing it
 (with optimistix and lineax) costs ~0.5 s of CPU (benchmarks/results/startup.md).
 """
 
@@ -130,7 +130,7 @@ def history_of(flat: FlatScene, s: BatchState) -> dict:
     )
     if not flat.pairs:
         del out["contact_pairs"]
-    if flat.tracked is not None:  # the SI quantities' histories (`_si`): O's and G's motion
+    if flat.tracked is not None:  # the SI quantities' histories (`_model.si`): O's and G's motion
         o, _, g = flat.tracked
         out["midspan_deflection"] = one.x[o, 1] - flat.x0[o, 1, 0]
         out["block_velocity"] = one.v[g, 1]

@@ -43,7 +43,7 @@ def respond(scene: Scene, xs, rotation_p, strain_p, permanent_set) -> Response:
     ):
         stiffness, weight = c.joint_stiffness_and_weight()
         s = c.section
-        angle = unwrap_near(angle, rp)  # a fold past pi: no jump (issue 12)
+        angle = unwrap_near(angle, rp)  # a fold past pi: no 2 pi jump
         m, rp1, d_rot = elastic_plastic(
             angle, rp, stiffness, s.plastic_moment, scene.yield_smoothing
         )

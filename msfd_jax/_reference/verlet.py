@@ -1,7 +1,7 @@
 """The per-chain MS-FD step as a diffrax solver (after diffrax's ``SemiImplicitEuler``).
 
 `VelocityVerlet` steps the per-chain reference (`dynamics.verlet_step`); the accuracy studies
-compare it with the batched core's `_batched.solver.BatchedVerlet`.
+compare it with the batched core's `_batched.verlet.BatchedVerlet`.
 
 History (plastic parts, permanent sets, dissipation) is a discrete update, so it belongs to the
 solver step, not to a vector field: the term below is only the rate form dx/dt = v,

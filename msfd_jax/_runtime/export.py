@@ -1,7 +1,7 @@
-"""Serialized programs (`jax.export`) stored next to the persistent compile cache (issue 11).
+"""Serialized programs (`jax.export`) stored next to the persistent compile cache.
 
 A new process that runs a collision, or a sweep (its queue's programs for each slot count,
-`_queue`), would trace diffrax's loop again (seconds) before the persistent compilation
+`_sweeps.queue`), would trace diffrax's loop again (seconds) before the persistent compilation
 cache can even be consulted: JAX's cache is keyed by the lowered program, which only
 tracing produces. Here a jitted function's program is traced once,
 serialized with `jax.export` and stored under a key made of everything that decides what
@@ -12,7 +12,7 @@ tracing would give:
 - the versions of Python, jax, jaxlib, equinox, diffrax and msfd-jax, and a hash of the
   core's source files (`msfd_jax/*.py`), so that an edited solver never loads an old program;
 - the trace-time settings that change the program: x64, the backend, rank promotion,
-  matmul precision, equinox's ``EQX_ON_ERROR`` and `_pruning.SKIP_FAR_BLOCKS` (off: the
+  matmul precision, equinox's ``EQX_ON_ERROR`` and `_batched.pruning.SKIP_FAR_BLOCKS` (off: the
   unpruned contact that tests and benchmarks compare against).
 
 A later process with the same key deserializes the program (milliseconds) and compiles it,
@@ -59,7 +59,7 @@ def enable(path: str | os.PathLike | None) -> Path | None:
 def use_with_compile_cache(path: str | os.PathLike) -> Path:
     """JAX's persistent compile cache in `path`, every program cached, and this store in
     `path`/exported: what a CLI process (`cli.common.enable_compilation_cache`) and a
-    cluster's worker (`_cluster.use_compile_cache`) set up.
+    cluster's worker (`_sweeps.cluster.use_compile_cache`) set up.
 
     JAX never writes an executable that contains host callbacks to the cache, and equinox's
     runtime checks (used by diffrax on ``dt0`` and ``SaveAt.ts``) are host callbacks under

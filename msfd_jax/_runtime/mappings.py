@@ -4,7 +4,7 @@ XLA:CPU maps memory for every kernel of every compiled program and keeps it whil
 program is cached: one collision program of the small mesh takes ~1300 mappings, a sweep's
 three queue programs ~1400 (``python benchmarks/memory_maps.py``). Linux allows 65 530 per
 process by default, and once they are used up the next compilation dies in XLA's code with a
-segmentation fault, no Python error (the CI run of stop 19: `tests/test_sweep.py` crashed with
+segmentation fault, no Python error (it happened in CI: `tests/test_sweep.py` crashed with
 65 304 mappings in use, after ~400 tests had compiled their programs in one process).
 
 So a process that compiles many different scenes (meshes, static settings, slot counts) in
