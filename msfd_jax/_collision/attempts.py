@@ -25,21 +25,21 @@ import numpy as np
 from .._batched.results import BALANCE_TOLERANCE, RESULTS
 from .._batched.simulate import Settings
 
-# Issue 12 item 3: a run stopped by a guard for a reason a smaller step can fix (non-finite or
+# A run stopped by a guard for a reason a smaller step can fix (non-finite or
 # energy balance broken with dt above STEP_CAUSE x the stability limit, `diagnose`'s test) is
 # rerun with the step halved, at most MAX_RETRIES times.
 STEP_CAUSE = 0.95
 MAX_RETRIES = 2
 RETRY_FACTOR = 0.5
-# Issue 12 item 1: a run that reports success but closes its energy balance only to worse than
+# A run that reports success but closes its energy balance only to worse than
 # BALANCE_RETRY_ABOVE (= BALANCE_TOLERANCE, 1e-4) K0 is also rerun with the step halved, at
 # most BALANCE_RETRIES halvings in all (failure retries included); the attempt reported is the
 # success with the smallest |error| (`keep_earlier`). 2 from the evidence in docs/stability.md:
 # the sharp-contact residual falls ~10x per halving (row 1/91: 4.1e-2, 3.3e-4, 4.7e-5 K0),
 # a third halving would cost 8x the first run for the few rows two do not close.
 BALANCE_RETRIES = 2
-# The rerun threshold is the flag's: no success is left open above 1e-4 K0 without a rerun
-# (issue 12 item 1's goal). At 2e-4 (the former value) 74 of 300 random-design successes stayed
+# The rerun threshold is the flag's, so that no success is left open above 1e-4 K0 without a
+# rerun. At 2e-4 (the former value) 74 of 300 random-design successes stayed
 # flagged between 1e-4 and 3.9e-4 K0, 29 of them never rerun (docs/stability.md). The paper's
 # thin free beam (tests/test_regression.py, thin_free: 1.45e-4 K0 open) is now rerun; the
 # regression record is its first attempt, which that test compares with the retry off.
@@ -85,7 +85,8 @@ def keep_earlier(result, error, later_result, later_error):
 def first_attempts():
     """Within the block no success is rerun for its balance (`BALANCE_RETRIES` = 0): `run`
     and sweeps report each successful collision's first attempt, as the regression record
-    (benchmarks/results/regression_baseline.json, recorded before issue 12 item 1) holds it.
+    (tests/data/regression_baseline.json, recorded before successes were rerun for their
+    balance) holds it.
     Failure retries stay on. Process-wide: not for use while other threads solve."""
     global BALANCE_RETRIES
     kept, BALANCE_RETRIES = BALANCE_RETRIES, 0
@@ -114,7 +115,7 @@ def _counted(part: dict, attempt) -> dict:
 
 
 def with_retry_columns(finished: dict) -> dict:
-    """Rows read back from a store written before issue 12: no retries, safety from dt."""
+    """Rows from a store written before rows had retry columns: no retries, safety from dt."""
     if not finished or "retries" in finished:
         return finished
     return _counted(finished, 0)
@@ -204,7 +205,7 @@ def solve_with_retries(
     the rows `needs_retry` names solved again at a smaller step, round after round
     (`Attempts`); output columns gain `RETRY_OUTPUTS`. `on_rows` sees each row once, with
     its final outputs. (The queue engine does not need rounds: it hands a row's retry back
-    to its own queue, `_sweep._solve_collisions`.)"""
+    to its own queue, `_sweeps.sweep._solve_collisions`.)"""
     n = len(next(iter(columns.values())))
     parts: list[tuple[np.ndarray, dict]] = []
 

@@ -91,7 +91,7 @@ def _fields(module) -> dict[str, Any]:
 
 
 def mesh_json(mesh: Mesh) -> dict[str, Any]:
-    # collapse_contacts (issue 12) is recorded only when on: records of the paper's model,
+    # collapse_contacts is recorded only when on: records of the paper's model,
     # and the sweeps' stores holding them, stay as they were
     out = _fields(mesh)
     if not out.get("collapse_contacts"):
@@ -100,7 +100,7 @@ def mesh_json(mesh: Mesh) -> dict[str, Any]:
 
 
 def settings_json(settings) -> dict[str, Any]:
-    # contact_loop (issue 11) is recorded only when given: the default's records, and the
+    # contact_loop is recorded only when given: the default's records, and the
     # sweeps' stores holding them, stay as they were
     out = _fields(settings)
     if out.get("contact_loop") is None:

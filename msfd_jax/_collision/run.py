@@ -69,7 +69,7 @@ def fractions(solution: Solution, scene: Scene) -> dict[str, Any]:
         out[f"{name}_bending"] = zeros if i is None else solution.bending[..., i] / k0
         out[f"{name}_axial"] = zeros if i is None else solution.axial[..., i] / k0
     out["contact"] = xp.sum(solution.contact, -1) / k0
-    # the collapse contacts' share of "contact" (issue 12; 0 without them)
+    # the collapse contacts' share of "contact" (0 without them)
     collapse = [isinstance(k, BlockFaceContact | SelfContact) for k in scene.contacts]
     out["contact_collapse"] = (
         xp.sum(solution.contact[..., np.asarray(collapse)], -1) / k0 if any(collapse) else zeros
@@ -136,7 +136,7 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
     err = float(sol.energy_balance_error) if balance else float("nan")
     detail = f" (error {err:.3g} K0)" if code == RESULTS.energy_balance_broken else ""
     fold = _folded(sol, scene) if balance else ""
-    if fold and np.isfinite(err):  # the fold guard (`_engine.FOLD_LIMIT`), not the balance
+    if fold and np.isfinite(err):  # the fold guard (`_batched.engine.FOLD_LIMIT`), not the balance
         if any(isinstance(k, BlockFaceContact | SelfContact) for k in scene.contacts):
             why = "the collapse contacts did not stop the fold"
             remedy = "refine the ring (Mesh.ring_segments) or lower the velocity or the mass"
@@ -179,7 +179,7 @@ def _balance(sol: Solution) -> str:
 def _folded(sol: Solution, scene: Scene) -> str:
     """Which joint has folded past `FOLD_LIMIT` (pi: its bars through each other), if any.
 
-    The joint angle is continuous past pi (`_safe.unwrap_near`), so the energy balance holds,
+    The joint angle is continuous past pi (`_model.safe.unwrap_near`), so the energy balance holds,
     but the bars then overlap: the model has no ring-on-ring or ring-on-block contact to stop
     it, so the engine stops the run there (`RESULTS.folded`, this message).
     """
@@ -342,7 +342,7 @@ def run(
     Raises `SimulationError` (with `diagnose`'s message and the failed `Collision`) when the
     run went non-finite, broke its energy balance or hit the step bound, unless
     ``check=False``. A run stopped for a reason a smaller step can fix (`step_is_cause`) is
-    first rerun with the step halved, at most `MAX_RETRIES` times (issue 12); so is a run
+    first rerun with the step halved, at most `MAX_RETRIES` times (`attempts`); so is a run
     that reports success with its balance open by more than `BALANCE_RETRY_ABOVE` (1e-4,
     = `BALANCE_TOLERANCE`) K0, at most `BALANCE_RETRIES` halvings (`needs_retry`; a run
     still open then is flagged, `balance_warning`). The attempt reported is the last one, or the

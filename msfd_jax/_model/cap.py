@@ -1,4 +1,4 @@
-"""The default time cap from the mechanics (issue 12 item 4): how long the block takes to stop.
+"""The default time cap from the mechanics: how long the block takes to stop.
 
 With ``Settings(t_max=None)`` (the default) each collision's cap is
 
@@ -20,7 +20,7 @@ taken up by the rigid-plastic resistances of the two structures, which act in se
 t_stop = max(t_ring + t_beam(v1), t_beam(v0)). The floor is the former fixed cap (10): a design
 whose cap is the floor runs exactly as before (same clock, steps and histories; the
 showcase's t_stop is 1.96 and it ends at 3.28); one with a larger cap keeps the floor's step
-grid (`_engine.make_clock`), so if it stops before 10 it takes the same steps, only its
+grid (`_batched.engine.make_clock`), so if it stops before 10 it takes the same steps, only its
 history samples spread over [0, cap]. CAP_FACTOR and CAP_MARGIN are set from the
 reliability benchmark: with the former fixed cap, 99 % of the settled designs ended by
 3.25 t_stop + 2 (reliability_before.json); with this cap none of 300 designs reached it
@@ -52,7 +52,7 @@ def stopping_time(scene: Scene, xp=jnp):
     """t_stop of a ring-on-beam scene (see the module docstring); jit/vmap-compatible.
 
     `xp` is the array module: jax.numpy (traced or eager), or numpy for a scene of host
-    arrays (`_simulate.resolve_cap`: one concrete cap without eager jax ops).
+    arrays (`concrete_time_cap`: one concrete cap without eager jax ops).
     """
     ring = scene.chains[scene.chain_index("ring")]
     beam = scene.chains[scene.chain_index("beam")]

@@ -1,4 +1,4 @@
-"""Contacts of a collapsing ring (issue 12): ring against the rigid block, ring against ring.
+"""Contacts of a collapsing ring: ring against the rigid block, ring against ring.
 
 The paper's model (Sect. 3.2) has one contact, ring against beam. A heavy fast impact folds
 the ring until it meets the rigid block or itself, and without these contacts the block
@@ -18,7 +18,7 @@ distances only (a smooth potential: Verlet conserves it, forces are central and 
 opposite), it is the paper's own contact law and element, and it has no closest-segment
 switching (node-to-segment projections jump at the chain's kinks and at segment ends, which
 creates or destroys energy in an explicit step). Its limit, that a node may slip between two
-nodes of the other wall, is excluded by the validity check `_params._check_collapse`
+nodes of the other wall, is excluded by the validity check `params._check_collapse`
 (node spacing below twice the gap), made from the inputs before anything runs.
 
 Springs are Eq. 18's blocks: the block face is rigid (only the ring's half thickness is

@@ -118,7 +118,7 @@ def block_stiffness(modulus_ratio, slenderness, tributary, thickness, width):
 
     K R^2 / M_pr = 2 E b l_t R^3 / (h Y b_r h_r^2 / 4) = 8 beta (b/b_r) (R/h_r)^3 l_t / (h/h_r).
 
-    (Issue 9: this once read 8 beta (R/h_r)^2 l_t / thickness, correct only for h in units of
+    (This once read 8 beta (R/h_r)^2 l_t / thickness, correct only for h in units of
     R, and left every contact spring R/h_r times too soft; tests/test_units.py audits it.)
     """
     return 8.0 * modulus_ratio * slenderness**3 * width * tributary / thickness

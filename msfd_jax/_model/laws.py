@@ -78,9 +78,9 @@ def _yield_approach(elastic_limit, width):
 
     On the linear branch (f_y/k >= w/2) s = f_y/k + w/2; on the quadratic onset
     (f_y/k < w/2) s = sqrt(2 w f_y/k). The second case is not an edge case: with the contact
-    stiffness of Eq. 18 (issue 9) f_y/k is 2-4e-4 R on the paper's section, below the
-    smoothing widths that tuning starts from (w = 1e-2), and taking the linear branch there
-    moved the permanent set backwards (negative contact dissipation, energy created).
+    stiffness of Eq. 18 (`contact.block_stiffness`) f_y/k is 2-4e-4 R on the paper's section,
+    below the smoothing widths that tuning starts from (w = 1e-2), and taking the linear branch
+    there moved the permanent set backwards (negative contact dissipation, energy created).
     """
     if width is None:
         return elastic_limit

@@ -140,7 +140,7 @@ class Mesh(eqx.Module):
     - `beam_contact_segments`: equal segments over the possible contact region OC (paper: 20).
     - `beam_outer_segments`: equal segments over CE (paper: 25 - 20 = 5).
     - `contact_region`: length of OC in units of R (paper: 2).
-    - `collapse_contacts`: also build the contacts of a ring that collapses (issue 12): ring
+    - `collapse_contacts`: also build the contacts of a ring that collapses: ring
       nodes against the rigid block's face and ring against ring for non-adjacent nodes
       (`msfd_jax._model.collapse`). Off (the paper's model) by default; a scene without them
       compiles none of their code. Part of the mesh because it is part of the discrete model
@@ -246,7 +246,7 @@ def validate(params: CollisionParams, mesh: Mesh) -> None:
 
 
 def _check_collapse(slenderness, ring_segments: int) -> None:
-    """Where ring-on-ring node-to-node contact can represent a fold (issue 12, docs/model.md).
+    """Where ring-on-ring node-to-node contact can represent a fold (docs/model.md).
 
     The self-contact gap is the ring thickness h_r/R = 1/slenderness and the pairs are nodes
     two or more apart. Two conditions on the chord s = 2 sin(pi/(4n)) between ring nodes:

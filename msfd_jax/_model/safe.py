@@ -19,7 +19,7 @@ def safe_norm(v, axis=-1):
 # Cephes' atan (S. L. Moshier, atan.c): range reduction to |x| <= tan(pi/8) and a rational
 # approximation, <= 2 ulp from libm's atan2 over 2e6 random pairs and <= 1 ulp at joint angles
 # (tests/test_engine.py). XLA:CPU calls libm for atan2, one element at a time
-# (11 ns each, not vectorised); this is plain arithmetic that XLA vectorises (issue 11).
+# (11 ns each, not vectorised); this is plain arithmetic that XLA vectorises.
 _ATAN_P = (
     -8.750608600031904122785e-1,
     -1.615753718733365076637e1,
@@ -60,7 +60,7 @@ def atan2(y, x):
     Its derivative is the exact one, d atan2 = (x dy - y dx) / (x^2 + y^2) (0 at the origin),
     not the derivative of the rational approximation: a few operations instead of the
     quotient rule through every branch, in each joint of every substep of a `jax.jvp` or
-    `jax.grad` of a run (issue 11, goal 5); the two agree to rounding (tests/test_engine.py).
+    `jax.grad` of a run; the two agree to rounding (tests/test_engine.py).
     """
     safe_x = jnp.where(x == 0, 1.0, x)
     t = _atan(y / safe_x)
@@ -84,7 +84,7 @@ def unwrap_near(angle, centre):
 
     A joint angle is atan2 of its bars, in (-pi, pi]: a joint that folds past pi would jump by
     -2 pi, and its return mapping would book a plastic rotation (and a dissipation m_p 2 pi)
-    that never happened (issue 12). Measured from its plastic rotation, whose elastic
+    that never happened. Measured from its plastic rotation, whose elastic
     difference stays below m_p / k << pi, the angle is continuous. Where no shift is needed the
     angle is returned unchanged to the bit (a zero is subtracted), so results that never fold
     that far are unchanged.

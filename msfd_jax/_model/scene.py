@@ -56,8 +56,8 @@ class Scene(eqx.Module):
     - `yield_smoothing`: softplus width of the return mapping, fraction of the yield value.
     - `contact_smoothing`: width of the contact activation ramp, in units of R (0 = sharp).
     - `smooth_yield`, `smooth_contact` (static): False when the width is known to be zero, so
-      the batched core compiles only the sharp law (no softplus, no ramp: issue 11); True
-      (the default) compiles the general law, exact for any width.
+      the batched core compiles only the sharp law (no softplus, no ramp: less work per
+      step); True (the default) compiles the general law, exact for any width.
     """
 
     chains: tuple[Chain, ...]
@@ -179,7 +179,7 @@ def ring_on_beam(
 
     At tau = 0 the surfaces just touch at S-O (gap (h_r + h_b)/(2R)); every ring node moves at
     v0 towards the beam (+y) and the beam is at rest (Eq. 24). With `mesh.collapse_contacts`
-    the scene also has the ring-block and ring-ring contacts of a collapse (`_collapse`),
+    the scene also has the ring-block and ring-ring contacts of a collapse (`collapse`),
     after the ring-beam contact (which stays contact set 0).
     """
     _check_types(params, mesh)

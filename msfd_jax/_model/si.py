@@ -14,7 +14,7 @@ the beam. What a crash test reports refers to the whole structure, so:
 - ``peak_block_deceleration_m_s2``: the block node's largest |acceleration| x R / T^2;
 - ``duration_s``: the run's end (dissipation stopped, or the cap) x T.
 
-Peaks, the impulse and the contact time are kept by the engine at every step (`_peaks`), not
+Peaks, the impulse and the contact time are kept by the engine at every step (`_batched.peaks`), not
 read from saved samples, so they do not depend on `Settings.history_points`. The mean contact
 force is the impulse over the time the contact is closed (so it never exceeds the peak).
 The unfiltered peak deceleration includes the first-impact spike and the ring's elastic

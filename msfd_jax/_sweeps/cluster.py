@@ -132,9 +132,9 @@ _CACHE: list[str] = []
 def use_compile_cache(path: str | Path) -> None:
     """JAX's persistent compile cache in `path` for this process (once per process), with
     the store of traced programs in it: what ``msfd_jax.cli.common.enable_compilation_cache``
-    does for the CLI, for a worker (`_export.use_with_compile_cache`: equinox's runtime checks
-    as ``nan`` unless ``EQX_ON_ERROR`` is set, every program cached, and a new worker loads
-    the queue's programs instead of tracing them).
+    does for the CLI, for a worker (`_runtime.export.use_with_compile_cache`: equinox's
+    runtime checks as ``nan`` unless ``EQX_ON_ERROR`` is set, every program cached, and a new
+    worker loads the queue's programs instead of tracing them).
     """
     path = str(Path(path).expanduser())
     if path in _CACHE:

@@ -1,6 +1,6 @@
 """The chunked (vmapped) and sharded path of a sweep (`sweep(..., shard=True)`): each chunk
 of collisions is one jit-compiled ``vmap`` of `simulate`, split across host devices with
-``jax.shard_map`` when there are several. Moved out of `_sweep` (which runs the queue
+``jax.shard_map`` when there are several. Moved out of `sweep` (which runs the queue
 engine by default) to keep each module under the house's 500 lines.
 """
 
@@ -40,7 +40,7 @@ def _run_chunk(function, columns, rows: range, chunk_size: int, *args):
 
 def _critical_chunk(params: CollisionParams, mesh: Mesh, smoothing):
     """Each collision's (stability limit, derived cap, expected duration); through the
-    store of serialized programs when it is on (`_export`).
+    store of serialized programs when it is on (`_runtime.export`).
 
     Called from one thread only: two threads running this program at once (its eigen-solve
     is a LAPACK call) deadlocked, once, on jax 0.10.2's CPU client, both waiting for their

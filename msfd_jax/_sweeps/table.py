@@ -1,7 +1,7 @@
 """`SweepTable`: the tidy result of a sweep (one row per collision), and its CSV form.
 
-A leaf of the sweep modules (`_store`, `_cluster`, `_sweep` import it; it imports only
-`_results`), so that the row stores can read and write tables without importing the sweep.
+A leaf of the sweep modules (`store` and `sweep` import it; it imports only
+`_batched.results`), so that the row stores can read and write tables without importing the sweep.
 """
 
 from __future__ import annotations
