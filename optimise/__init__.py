@@ -1,4 +1,4 @@
-"""optimise: gradient-based tuning of a ring-on-beam design for a target energy split (issue 4).
+"""optimise: gradient-based tuning of a ring-on-beam design for a target energy split.
 
 Imports `msfd_jax`; `msfd_jax` never imports this package (its CLI loads it lazily for
 ``msfd tune``).

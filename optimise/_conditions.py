@@ -1,4 +1,4 @@
-"""Impact conditions as samples, for robust tuning of the *expected* energy split (issue 4).
+"""Impact conditions as samples, for robust tuning of the *expected* energy split.
 
 A guardrail is not hit at one speed by one car: `Conditions` holds samples of the impact
 velocity v0 and the block mass ratio g (paired: sample i is (velocity[i], mass_ratio[i])), with

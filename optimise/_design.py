@@ -24,8 +24,8 @@ import jax.numpy as jnp
 import msfd_jax as m
 
 # Default ranges of each design variable (non-dimensional, Eq. 1): inside the parameter ranges
-# that `CollisionParams` accepts, and where the paper's model is meant to be used (issue 4:
-# thickness ratios in [0.5, 5]; span beyond the contact region 2R).
+# that `CollisionParams` accepts, and where the paper's model is meant to be used
+# (thickness ratios in [0.5, 5]; span beyond the contact region 2R).
 DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
     "thickness_ratio": (0.5, 5.0),
     "width_ratio": (0.25, 4.0),

@@ -13,7 +13,7 @@ The compiled simulation programs never see the objective, so every objective sha
 Both modes differentiate the same discrete map: the time step is held fixed (``msfd_jax``
 stops its gradient), so a finite difference agrees with them only at a fixed ``Settings.dt``
 and on a smoothed model (``yield_smoothing`` and ``contact_smoothing`` > 0); the sharp model's
-derivative is exact for its discrete map but jagged in the design (issue 4).
+derivative is exact for its discrete map but jagged in the design (below).
 
 **The sharp model has no design gradient.** With ``yield_smoothing == contact_smoothing == 0``
 a run of a few thousand steps switches contact and yield hundreds of times; the exact

@@ -1,6 +1,6 @@
 """Tuning a design to an energy-split target: projected Adam on a smoothed model, annealed.
 
-Method (issue 4: "a path back to the sharp model"):
+Method (the smoothing is a path back to the sharp model, whose design the answer is):
 
 1. Each stage fixes a yield smoothing s (fraction of the yield value) and a contact smoothing w
    (units of R); stages anneal both towards zero. They are arrays in the scene, so no stage

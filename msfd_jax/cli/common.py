@@ -168,7 +168,7 @@ def add_numerics_arguments(parser: argparse.ArgumentParser) -> None:
         "--collapse-contacts",
         action="store_true",
         help="also model a collapsing ring: ring on the block's face and ring on ring "
-        "(issue 12; default off, the paper's model)",
+        "(default off, the paper's model)",
     )
     group = parser.add_argument_group("numerics")
     group.add_argument(

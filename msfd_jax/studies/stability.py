@@ -1,8 +1,8 @@
 """Stability catalogue: stiff and extreme ring-on-beam scenes, each with its expected outcome.
 
-Issue 5 item 2. Every scene either finishes (finite results, |energy balance error| within a
-stated tolerance of K0) or is refused at the boundary / stopped by a solver guard with a
-message naming the cause. The catalogue is data (`CATALOGUE`); `run_catalogue` runs it and
+Every scene either finishes (finite results, |energy balance error| within a stated tolerance
+of K0) or is refused at the boundary / stopped by a solver guard with a message naming the
+cause. The catalogue is data (`CATALOGUE`); `run_catalogue` runs it and
 ``msfd bench stability`` prints the table recorded in docs/stability.md.
 
 Compilation: a program is compiled per mesh and per set of static `Settings` fields, so every
@@ -70,7 +70,7 @@ class StabilityScene:
       (for scenes where ending with the block still moving would be a wrong answer).
     - `float32`: run in a fresh process with x64 turned off after import.
     - `fixed_mesh`: keep `mesh` in quick form too (scenes whose point is the paper mesh).
-    - `collapse`: build the collapse contacts (`Mesh.collapse_contacts`, issue 12); the quick
+    - `collapse`: build the collapse contacts (`Mesh.collapse_contacts`); the quick
       form then has 8 ring segments (6 are refused at R/h_r = 10).
     - `retry`: recover from a step failure as `run` does (halved step, <= 2 retries).
     """
@@ -98,15 +98,16 @@ _S = StabilityScene
 _LIMIT = "the computed stability limit"  # what diagnose() says when dt is past dt_crit
 _NO_SETTLE = {"stop_when_settled": False}  # shares the long run's program
 _SLOW = {"velocity": 0.05, "mass_ratio": 1000.0}  # K0 = 1.25 M_pr, the showcase's order
-# issue 12: a step failure recovered by `run`'s retry (the step halved), paper mesh
+# a step failure recovered by `run`'s retry (the step halved), paper mesh
 _RETRY_PAPER = dict(mesh=PAPER_MESH, step_factor=1.5, fixed_mesh=True, retry=True)
 CATALOGUE: tuple[StabilityScene, ...] = (
     _S("showcase", "the paper's Fig. 13 collision (reference row)"),
     _S("modulus_100", "E/Y = 100: soft material, large elastic strains", {"modulus_ratio": 100.0}),
     _S("modulus_2000", "E/Y = 2000: stiff material, small stable step", {"modulus_ratio": 2000.0}),
-    # quick_tolerance 3e-3: on the coarse 6/8+2 mesh the sharp contact, 10x stiffer since
-    # issue 9, closes and opens with a kink the default step resolves at first order (measured
-    # 1.9e-3 and 2.1e-3 K0 at tau = 3 for these two; 2.5e-4 and 2.4e-5 on the paper mesh)
+    # quick_tolerance 3e-3: on the coarse 6/8+2 mesh the sharp contact, 10x stiffer since its
+    # Eq. 18 stiffness was corrected, closes and opens with a kink the default step resolves
+    # at first order (measured 1.9e-3 and 2.1e-3 K0 at tau = 3 for these two; 2.5e-4 and
+    # 2.4e-5 on the paper mesh)
     _S(
         "thin_beam",
         "h_b/h_r = 0.1: beam far thinner than the ring",
@@ -116,9 +117,10 @@ CATALOGUE: tuple[StabilityScene, ...] = (
     _S("thick_beam", "h_b/h_r = 10: nearly rigid beam", {"thickness_ratio": 10.0}),
     _S("slow_impact", "v0 = 0.05: barely plastic impact", {"velocity": 0.05}),
     # v0 = 5 folds the ring back past pi at the block (joint 15) while crushing a ring bar:
-    # beyond what the discrete model represents, whatever the step. Until issue 12 the fold
-    # wrapped the joint angle and the spurious 2 pi m_p tripped the energy guard (the message
-    # then named the crushed bar); now the fold guard stops it at the same tau, naming the fold.
+    # beyond what the discrete model represents, whatever the step. Before `unwrap_near` the
+    # fold wrapped the joint angle and the spurious 2 pi m_p tripped the energy guard (the
+    # message then named the crushed bar); now the fold guard stops it at the same tau, naming
+    # the fold.
     _S(
         "fast_impact",
         "v0 = 5: six times the showcase speed (folds the ring past pi: must stop, naming it)",
@@ -134,7 +136,7 @@ CATALOGUE: tuple[StabilityScene, ...] = (
         expect=STOPPED,
         cause="past pi",
     ),
-    # issue 12: the same impact with the collapse contacts (ring on block face, ring on ring)
+    # the same impact with the collapse contacts (ring on block face, ring on ring)
     _S(
         "fast_impact_collapse",
         "v0 = 5 with collapse contacts (Mesh.collapse_contacts): the ring flattens on the block",
@@ -195,9 +197,9 @@ CATALOGUE: tuple[StabilityScene, ...] = (
         step_factor=1.0,
         fixed_mesh=True,
     ),
-    # The estimate is safe but conservative where the contact bound dominates (issue 9: the
-    # observed limit of the showcase is 1.41 dt_crit on the paper mesh, 2.05 on the coarse
-    # one; benchmarks/results/stability_limit.md): 1.1 and 1.2 finish, 1.5 is caught.
+    # The estimate is safe but conservative where the contact bound dominates (the observed
+    # limit of the showcase is 1.41 dt_crit on the paper mesh, 2.05 on the coarse one;
+    # docs/results/stability_limit.md): 1.1 and 1.2 finish, 1.5 is caught.
     _S(
         "over_limit_1.1",
         "dt = 1.1 dt_crit (paper mesh: stable, the observed limit is 1.41)",

@@ -1,4 +1,4 @@
-"""The work-precision study (issue 5): other integrators against the default Verlet step.
+"""The work-precision study: other integrators against the default Verlet step.
 
 `methods` (the integrators compared and the fractions they yield), `runners` (collisions,
 configuration, runners, timing, the reference), `study` (the study and its extensions),

@@ -12,7 +12,7 @@ from . import _batch as b
 
 def draw_fig15(numbers: dict, figures_dir: Path) -> list[str]:
     """``fig15.png``: per case a row, the fine run's force and the whole response's; panels
-    lettered (a), (b), (c), ... row by row (issue 14: the letters were repeated per row)."""
+    lettered (a), (b), (c), ... row by row, so that no two panels share a letter."""
     cases, curves = numbers["cases"], numbers["curves"]
     fig = Figure(figsize=(13, 3.6 * len(cases)), layout="constrained")
     axes = fig.subplots(len(cases), 2, squeeze=False)

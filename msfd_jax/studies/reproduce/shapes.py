@@ -161,7 +161,7 @@ def plot_fig14(cases: list[b.Run], sweep: list[b.Run]):
     """Fig. 14's final rings and the dimple depth against h_b/h_r."""
     from matplotlib.figure import Figure
 
-    # titles on two lines and a wider figure: one line was cut off at 14 in (issue 14)
+    # titles on two lines and a wider figure: on one line a title was cut off at 14 in
     fig = Figure(figsize=(4.2 * len(cases) + 5.0, 4.6), layout="constrained")
     axes = fig.subplots(1, len(cases) + 1, width_ratios=[1.0] * len(cases) + [1.2])
     for ax, run in zip(axes[:-1], cases, strict=True):

@@ -1,4 +1,4 @@
-"""Work-precision study (issue 5, item 1): writes docs/results/accuracy.* and the figures.
+"""Work-precision study: writes docs/results/accuracy.* and the figures.
 
 Parts (each writes its own JSON, the markdown is rebuilt from every JSON present):
 

@@ -149,7 +149,8 @@ def contact_at_unit_thickness(lines):
 
 
 def rounding_amplification(lines):
-    """vmap over three thicknesses against a loop of single runs, coarse mesh (issue 9)."""
+    """vmap over three thicknesses against a loop of single runs, coarse mesh: how far the
+    sharp, stiff contact amplifies rounding."""
     lines += [
         "## Rounding amplification, coarse mesh: vmap against a loop of single runs",
         "",

@@ -1,7 +1,8 @@
-"""What the solver computes now, recorded before the batched core is rebuilt (issue 11).
+"""What the solver computes now, recorded before the batched core is rebuilt.
 
-Issue 11 asks that the new core reproduce the current (contact-fixed, issue 9) partitions,
-step counts and end times to 1e-9 K0. This script records them, on the paper's mesh with the
+The rebuilt core must reproduce the current partitions (with the corrected contact
+stiffness), step counts and end times to 1e-9 K0, so that the rewrite is known to change no
+result beyond rounding. This script records them, on the paper's mesh with the
 default settings, for
 
 - the three single collisions of the accuracy and convergence studies (showcase, thin free
@@ -20,8 +21,8 @@ tests/test_regression.py). ~5 min.
 
 Writes tests/data/regression_baseline.json; `tests/test_regression.py` checks the
 single collisions against it on every run of the suite. The record is of the core's first
-attempts: the rerun of successes whose balance stays open (issue 12 item 1, later) is off
-here (`_attempts.first_attempts`); failure retries are on but none of these runs fails.
+attempts: the rerun of successes whose balance stays open (added after this record) is off
+here (`_collision.attempts.first_attempts`); failure retries are on but none of these runs fails.
 """
 
 from __future__ import annotations
@@ -54,7 +55,7 @@ SWEEP_GRID = {
 }
 FRACTIONS = (*m.FRACTION_KEYS, "kinetic_ring", "kinetic_block", "kinetic_beam")
 NUMBERS = ("energy_balance_error", "t_end", "dt", "dt_critical", "k0")
-TOLERANCE = 1e-9  # K0, issue 11
+TOLERANCE = 1e-9  # K0: what the rebuilt core must reproduce the record to
 
 
 def single(name: str) -> dict:

@@ -1,4 +1,4 @@
-"""The paper's quasi-static results: Fig. 17c, Fig. 18/22, Eq. 25 and Parkes (issue 3).
+"""The paper's quasi-static results: Fig. 17c, Fig. 18/22, Eq. 25 and Parkes.
 
 Runs `msfd_jax.studies.reproduce.quasistatic` (paper mesh unless --quick), writes the figures
 docs/figures/{fig17c,fig18_fig22,eq25_parkes}.png and the markdown docs/results/

@@ -1,7 +1,7 @@
 """How far the recorded partitions are defined: each baseline collision run twice, with the
 impact velocity moved by one ulp (0.82 -> nextafter(0.82, 1)), sharp and smoothed contact.
 
-Issue 11 asks that the rebuilt core reproduce the recorded partitions to 1e-9 K0. Where the
+The rebuilt core must reproduce the recorded partitions to 1e-9 K0. Where the
 model itself moves by more than that under a one-ulp change of an input, no rewrite that
 changes the order of floating-point operations can: such a collision amplifies rounding
 (the sharp, stiff contact chatters), and its recorded value is defined only to that spread.

@@ -1,8 +1,8 @@
 """Observed stability limit of the Verlet step against the computed estimate dt_crit.
 
-Issue 9 item 1: `critical_step` (exact structural eigenvalue + a Gershgorin bound on the
-contact springs) must stay a safe estimate, and the observed limit must lie within 10 % above
-it. For each collision the step factor f = dt / dt_crit is bisected between a stable and an
+`critical_step` (exact structural eigenvalue + a Gershgorin bound on the contact springs)
+must stay a safe estimate, and a tight one: the observed limit must lie within 10 % above it.
+For each collision the step factor f = dt / dt_crit is bisected between a stable and an
 unstable value over the whole run (to the settled stop, tau <= 6, the default stopping rule and
 sub-steps); a run counts as unstable when the energy guard (0.05 K0) or the non-finite guard
 stops it.
