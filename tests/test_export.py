@@ -216,3 +216,26 @@ def test_a_sweep_stores_its_programs_and_a_new_process_loads_them(tmp_path):
         assert run["columns"].keys() == traced["columns"].keys()
         for key, values in traced["columns"].items():
             np.testing.assert_array_equal(run["columns"][key], values, err_msg=key)
+
+
+def test_the_program_key_follows_every_layer_and_the_pruning_switch(monkeypatch):
+    # a stored program must never outlive an edit of the solver: the source hash covers the
+    # layers' modules (msfd_jax/_*/*.py), and the key records the pruning switch, which the
+    # unpruned reference of the tests turns off
+    from pathlib import Path
+
+    from msfd_jax._batched import pruning
+
+    root = Path(_export.__file__).parents[1]
+    engine = root / "_batched" / "engine.py"
+    monkeypatch.setattr(_export, "_source_hash", None)
+    before = _export.source_hash()
+    read = Path.read_bytes
+    monkeypatch.setattr(Path, "read_bytes", lambda f: b"edited" if f == engine else read(f))
+    monkeypatch.setattr(_export, "_source_hash", None)
+    assert _export.source_hash() != before
+    monkeypatch.undo()
+    signature = ("tree", "()", "[]")
+    pruned = _export._key_text("simulate", signature)
+    monkeypatch.setattr(pruning, "SKIP_FAR_BLOCKS", False)
+    assert _export._key_text("simulate", signature) != pruned

@@ -236,7 +236,7 @@ def _key_text(name: str, signature: tuple) -> str | None:
         "eqx_on_error": str(getattr(equinox._errors, "EQX_ON_ERROR", "?")),
         # read where it is set, without importing the core (this module stays light)
         "skip_far_blocks": bool(
-            getattr(sys.modules.get(f"{__package__}._pruning"), "SKIP_FAR_BLOCKS", True)
+            getattr(sys.modules.get("msfd_jax._batched.pruning"), "SKIP_FAR_BLOCKS", True)
         ),
     }
     return repr((name, *signature, sorted(environment.items())))
@@ -262,12 +262,15 @@ def _versions() -> dict[str, str]:
 
 
 def source_hash() -> str:
-    """sha256 of the core's source files (`msfd_jax/*.py`), computed once per process."""
+    """sha256 of the core's source files (`msfd_jax/*.py` and its layers, `msfd_jax/_*/*.py`),
+    computed once per process: an edit of any module a program is traced from changes it."""
     global _source_hash
     if _source_hash is None:
         digest = hashlib.sha256()
-        for file in sorted(Path(__file__).parent.glob("*.py")):
-            digest.update(file.name.encode() + b"\0" + file.read_bytes() + b"\0")
+        root = Path(__file__).parents[1]
+        for file in sorted([*root.glob("*.py"), *root.glob("_*/*.py")]):
+            name = file.relative_to(root).as_posix()
+            digest.update(name.encode() + b"\0" + file.read_bytes() + b"\0")
         _source_hash = digest.hexdigest()
     return _source_hash
 
