@@ -7,14 +7,14 @@ force, keep their permanent sets, dissipate and store nothing). Two ways to skip
 
 - ``"blocks"`` (`blocked_pairs`): each block is a ``lax.cond``; differentiable in forward and
   reverse mode. A skipped block still costs its conditional and passes its part of the
-  permanent set through (benchmarks/results/profile_contact.md).
+  permanent set through (results/profile_contact.md at ee23c14^, git show).
 - ``"dense"`` (`dense_pairs`): every pair in one block, no conditional, nothing skipped:
   straight-line code for a GPU, where XLA may run a conditional by reading its predicate on
   the host (benchmarks/gpu_throughput.py compares the loops there).
 - ``"listed"`` (`listed_pairs`): the near blocks are listed and a ``lax.while_loop`` visits
   only them, updating the permanent set and the forces in place; a far block costs nothing
   but its bounding-box test. Forward mode (``jax.jvp``) works through it, reverse mode does
-  not (a while loop of dynamic length): the sweeps use it (benchmarks/results/contact_loop.md).
+  not (a while loop of dynamic length): the sweeps use it (results/contact_loop.md at ee23c14^).
 
 For the same block shape the two give the same numbers bit for bit (tests/test_pruning.py),
 and with `SKIP_FAR_BLOCKS` off every block is evaluated, in the same blocks and order (the
@@ -68,7 +68,7 @@ def contact_blocks(n_a: int, n_b: int, batch: int) -> tuple[int, int]:
     return min(n_a, max(4, -(-n_a // 4))), min(n_b, max(7, -(-n_b // 5)))
 
 
-LISTED_BLOCK = (2, 7)  # block shape of the listed loop (benchmarks/results/contact_loop.md)
+LISTED_BLOCK = (2, 7)  # block shape of the listed loop (results/contact_loop.md at ee23c14^)
 
 
 def listed_blocks(n_a: int, n_b: int, batch: int) -> tuple[int, int]:

@@ -47,8 +47,9 @@ CONTACT_LOOPS = ("blocks", "listed", "dense")  # Settings.contact_loop (msfd_jax
 # Contact pairs (ring nodes x beam contact nodes) from which a sweep lists the near blocks
 # (`Settings.contact_loop` None). Whole sweeps side by side (benchmarks/sweep_loops.py):
 # 0.87x as fast listed on the paper's 16 x 21 (sweep_loops.md), 0.91x at twice the mesh,
-# 31 x 41 (sweep_loops_x2.md: the tail's small batches favour the conditionals), 1.56x at
-# four times, 61 x 81 (sweep_loops_x4.md); single segments: benchmarks/results/contact_loop.md.
+# 31 x 41 (benchmarks/results/sweep_loops.md, x2: the tail's small batches favour the
+# conditionals), 1.56x at
+# four times, 61 x 81 (x4); single segments: results/contact_loop.md at ee23c14^ (git show).
 LISTED_FROM_PAIRS = 4000
 
 
@@ -111,7 +112,7 @@ class Settings(eqx.Module):
     - `contact_loop`: how the ring-beam contact skips its blocks out of reach (static;
       `msfd_jax._batched.pruning`): ``"blocks"`` a conditional per block, differentiable in forward
       and reverse mode; ``"listed"`` a loop over the near blocks only, faster on batches
-      (benchmarks/results/contact_loop.md) but differentiable in forward mode (``jax.jvp``)
+      (results/contact_loop.md at ee23c14^) but differentiable in forward mode (``jax.jvp``)
       only; ``"dense"`` every pair in one block with no conditional (nothing skipped; for a
       GPU, benchmarks/results/gpu.md). ``None`` (the default): ``"blocks"``, except in a
       sweep (never differentiated): on a CPU ``"listed"`` for a mesh whose contact set has

@@ -23,11 +23,12 @@ showcase's t_stop is 1.96 and it ends at 3.28); one with a larger cap keeps the 
 grid (`_batched.engine.make_clock`), so if it stops before 10 it takes the same steps, only its
 history samples spread over [0, cap]. CAP_FACTOR and CAP_MARGIN are set from the
 reliability benchmark: with the former fixed cap, 99 % of the settled designs ended by
-3.25 t_stop + 2 (reliability_before.json); with this cap none of 300 designs reached it
-(benchmarks/results/reliability.md). The estimate is pessimistic for free thin beams (t_stop
-in the thousands where runs settled by tau = 37), hence the ceiling; it also bounds the cost of
-designs whose beam cannot stop the block (a free thin beam under a heavy block bends on until
-it would pass its supports, which the model does not represent): they report "time limit".
+3.25 t_stop + 2 (results/reliability_before.json at ee23c14^); with this cap none of 300
+designs reached it (benchmarks/results/reliability.md). The estimate is pessimistic for free
+thin beams (t_stop in the thousands where runs settled by tau = 37), hence the ceiling; it
+also bounds the cost of designs whose beam cannot stop the block (a free thin beam under a
+heavy block bends on until it would pass its supports, which the model does not represent):
+they report "time limit".
 """
 
 from __future__ import annotations

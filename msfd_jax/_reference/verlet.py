@@ -33,7 +33,7 @@ class VelocityVerlet(diffrax.AbstractSolver):
     Second order and symplectic while the response is elastic; stable for dt < 2/omega_max.
     ``args`` must be ``(scene, settle_tolerance)``. Each diffrax step of length H makes
     ``substeps`` Verlet steps of H/substeps: diffrax's per-step bookkeeping (saving, events)
-    is then paid once per ``substeps`` steps (benchmarks/results/profile.md).
+    is then paid once per ``substeps`` steps (benchmarks/results/profile.md at ee23c14^, git show).
     """
 
     term_structure: ClassVar = diffrax.AbstractTerm

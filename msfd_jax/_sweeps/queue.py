@@ -36,14 +36,15 @@ from .._model.scene import _ring_on_beam, smoothed
 from .._model.state import State
 from .._runtime import export as _export
 
-DEFAULT_SLOTS = 32  # the fastest of 16, 32, 64 per collision-step (benchmarks/slot_cost.py)
+# the fastest of 16, 32, 64 per collision-step (benchmarks/slot_cost.py at ee23c14^, git show)
+DEFAULT_SLOTS = 32
 # On an accelerator: 0.0287 us per collision-step at 8192 slots against 0.0639 at 1024 and
 # 0.0262 at 65536 on an H200 (benchmarks/results/gpu.md); 8192 keeps a tail of long
 # collisions on fewer slots sooner and the memory small.
 GPU_DEFAULT_SLOTS = 8192
 MIN_SLOTS = 16
 # A tail of at most TAIL_SLOTS running collisions moves to that many slots: below the vector
-# width XLA:CPU runs scalar code whose cost grows with the slots (benchmarks/slot_cost.py: a
+# width XLA:CPU runs scalar code whose cost grows with the slots (slot_cost.py at ee23c14^: a
 # substep of 1, 2, 4, 8, 16 slots costs 6.7, 12.9, 25.0, 43.8, 44.4 us on the paper mesh),
 # and a collision's arithmetic is the same bit for bit (tests/test_sweep.py).
 TAIL_SLOTS = 4
@@ -532,7 +533,7 @@ def _slot_count(n: int, slots: int) -> int:
     of 2 or 3 the lanes past the vector width ran as scalar remainder code, whose rounding
     differed by ~1e-11 relative (and a cluster's task split changed results). At least 16:
     a substep of 8 slots costs as much as one of 16 on XLA:CPU (59.5 against 62.6 us on the
-    paper mesh, `benchmarks/slot_cost.py`), so 8 slots only halve the throughput.
+    paper mesh, `benchmarks/slot_cost.py` at ee23c14^), so 8 slots only halve the throughput.
     """
     return max(MIN_SLOTS, 1 << max(0, (min(n, slots) - 1).bit_length()))
 
