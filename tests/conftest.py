@@ -67,7 +67,7 @@ def _no_compilation_cache_leaks():
 
 # The suite shares compiled programs across files, but XLA:CPU holds ~1300 memory mappings per
 # collision program, and past vm.max_map_count (65 530) the next compilation segfaults (CI of
-# stop 19, in tests/test_sweep.py at 65 304 mappings; msfd_jax/_mappings.py). Below the
+# stop 19, in tests/test_sweep.py at 65 304 mappings; msfd_jax/_runtime/mappings.py). Below the
 # library's own guard (0.75 of the limit, which would warn, an error here) the suite drops
 # its compiled programs after a test once half the limit is used; later tests recompile.
 SUITE_RELEASE_AT = 0.5
