@@ -267,13 +267,18 @@ def derived_cap(scene: Scene):
     return concrete_time_cap(scene)
 
 
+def run_cap(scene: Scene, settings: Settings):
+    """The cap of `scene`'s run: `Settings.t_max`, else the scene's derived cap."""
+    return settings.t_max if settings.t_max is not None else derived_cap(scene)
+
+
 def max_steps_for(scene: Scene, settings: Settings, dt_critical=None, cap=None) -> int:
     """`Settings.max_steps`, else the step bound (`step_bound`) of `scene`'s run: its cap and
     stability limit computed here unless given. Needs concrete values (not under jit/vmap)."""
     if settings.max_steps is not None:
         return settings.max_steps
     if cap is None:
-        cap = settings.t_max if settings.t_max is not None else derived_cap(scene)
+        cap = run_cap(scene, settings)
     if settings.dt is None and dt_critical is None:
         dt_critical = stability_limit(scene)
     if _traced((cap, dt_critical, settings.dt, settings.safety)):
@@ -292,8 +297,7 @@ def _simulate(
     import diffrax  # at trace time: a stored program (`_runtime.export`) runs without diffrax
 
     flat = flatten(scene)
-    dt_crit = dt_critical
-    dt = dt_crit * settings.safety if settings.dt is None else settings.dt
+    dt = dt_critical * settings.safety if settings.dt is None else settings.dt
     # t_max=None: this collision's derived cap, on its floor's grid (`make_clock`)
     derived = None if settings.t_max is not None else cap[None]
     clock = make_clock(flat, dt[None], settings, max_steps, derived)
@@ -336,7 +340,7 @@ def _simulate(
         t_end=t_end,
         steps=(last.k[0] * settings.substeps).astype(int),
         dt=dt,
-        dt_critical=dt_crit,
+        dt_critical=dt_critical,
         k0=k0,
         bending=final.bending,
         axial=final.axial,
@@ -411,7 +415,7 @@ def prepare(scene: Scene, settings: Settings, adjoint=None, dt_critical=None) ->
     if dt_critical is None:
         dt_critical = stability_limit(scene)
     dt_critical = jax.lax.stop_gradient(_as_float64(dt_critical))
-    cap = settings.t_max if settings.t_max is not None else derived_cap(scene)
+    cap = run_cap(scene, settings)
     bound = max_steps_for(scene, settings, dt_critical, cap)
     # adjoint None stays None: `solver.solve` takes diffrax's RecursiveCheckpointAdjoint, the
     # same program, and a process that loads a stored program needs no diffrax for the key
