@@ -270,9 +270,6 @@ def test_more_collisions_than_slots_refill_and_equal_single_runs(one_worker):
     assert len(table) == 20
     assert table.timing["slots"] == 16 and table.timing["workers"] == 1
     assert table.timing["segments"] > 1  # the refilled slots ran on after the first ones
-    # a tail that runs for less than a compilation stays in its slots (`_queue.TAIL_PAYBACK`)
-    assert table.timing["run_s"] < table.timing["compile_s"]
-    assert table.timing["compactions"] == 0
     for i, row in enumerate(ROWS20):
         single = m.run(m.CollisionParams(**row), SMALL_MESH, SHORT, contact_smoothing=SMOOTH)
         out = single.to_json()
@@ -323,22 +320,31 @@ def test_an_error_in_a_worker_thread_reaches_the_caller():
               on_rows=fail)  # fmt: skip
 
 
-def test_the_scalar_tail_gives_the_same_rows(one_worker, monkeypatch):
+def test_the_scalar_tail_gives_the_same_rows(monkeypatch):
     """The tail's last collisions move to 4, 2 and 1 slots (`_queue.TAIL_SLOTS`): their rows
     equal those of a tail kept at 16 slots, every column (a collision's arithmetic does not
-    depend on the slot count)."""
+    depend on the slot count). A tail whose new program would not pay for its compilation
+    (`_queue.TAIL_PAYBACK`) stays in its slots."""
     from msfd_jax._sweeps import queue as _queue
 
     assert _queue._tail_size(3, 16) == 4 and _queue._tail_size(1, 4) == 1
     assert _queue._tail_size(5, 16) == 16 and _queue._tail_size(9, 64) == 16
-    # `one_worker`'s tail stayed at 16 slots (a tail shorter than a compilation); with the
-    # payback rule off this one moves to 4, 2 and 1
-    monkeypatch.setattr(_queue, "TAIL_PAYBACK", 0.0)
-    wide = sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH, workers=1)
-    assert wide.timing["compactions"] >= 2 and one_worker.timing["compactions"] == 0
+
+    def run():
+        return sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH,
+                     workers=1)  # fmt: skip
+
+    monkeypatch.setattr(_queue, "TAIL_PAYBACK", 1e9)  # no compilation ever pays
+    assert run().timing["compactions"] == 0
+    monkeypatch.setattr(_queue, "TAIL_PAYBACK", 0.0)  # every one does
+    scalar = run()
+    assert scalar.timing["compactions"] >= 1
+    monkeypatch.setattr(_queue, "TAIL_SLOTS", 0)  # the tail stays at MIN_SLOTS
+    wide = run()
+    assert wide.timing["compactions"] == 0
     for key in OUTPUTS:
         if key != "wall_time_s":
-            np.testing.assert_array_equal(np.asarray(wide[key]), np.asarray(one_worker[key]), key)
+            np.testing.assert_array_equal(np.asarray(wide[key]), np.asarray(scalar[key]), key)
 
 
 def test_the_default_slots_follow_the_platform(monkeypatch):
