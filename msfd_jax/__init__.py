@@ -25,10 +25,20 @@ from ._collision.run import (  # noqa: E402
 from ._model.chain import Chain, Section, rectangular_section  # noqa: E402
 from ._model.contact import AbstractContact, NodeToNodeContact, NodeToPlaneContact  # noqa: E402
 from ._model.laws import contact_energy, contact_spring, elastic_plastic, ramp  # noqa: E402
-from ._model.params import PAPER_SI, CollisionParams, Mesh, Scales, from_si, validate  # noqa: E402
+from ._model.params import (  # noqa: E402
+    PAPER_SI,
+    CollisionParams,
+    Mesh,
+    Scales,
+    beam_segments,
+    from_si,
+    validate,
+)
 from ._model.scene import (  # noqa: E402
     Drive,
     Scene,
+    beam_mass,
+    beam_mass_ratio,
     beam_midspan_load,
     cantilever_tip_mass,
     ring_on_beam,
@@ -40,6 +50,9 @@ from ._runtime.mappings import CompiledProgramsReleased  # noqa: E402
 from ._sweeps.sweep import SweepTable, solve_collisions, sweep  # noqa: E402
 
 __all__ = [
+    "beam_mass",
+    "beam_mass_ratio",
+    "beam_segments",
     "CompiledProgramsReleased",
     "SweepTable",
     "sweep",

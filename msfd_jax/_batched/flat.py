@@ -117,7 +117,9 @@ class FlatScene(eqx.Module):
     start_direction: tuple[Array | None, ...]  # per chain: (2, B) for a clamped start
     end_direction: tuple[Array | None, ...]  # per chain: (2, B) for a clamped end
     attached_mass: Float[Array, "chains B"]
-    gap: tuple[Array, ...]  # per contact set: (B,) gap, or the plane's offset - level
+    # per contact set: (B,) gap, (n_a, n_b, B) one per pair (a graded beam), or for a plane
+    # its offset - level
+    gap: tuple[Array, ...]
     stiffness: tuple[Array, ...]
     yield_force: tuple[Array, ...]
     drive_velocity: Float[Array, " B"]
@@ -201,7 +203,8 @@ def _flatten_one(scene: Scene) -> FlatScene:
         k, w = c.joint_stiffness_and_weight()
         ones_b, ones_j = jnp.ones_like(l0), jnp.ones_like(k)
         per_bar.append((l0, s.axial_modulus * ones_b, s.plastic_axial * ones_b))
-        per_joint.append((k, w, s.plastic_moment * ones_j, c.joint_angles(c.reference, atan2)))
+        angles = c.joint_angles(c.reference, atan2)
+        per_joint.append((k, w, c.joint_plastic_moment() * ones_j, angles))
         ref = c.reference
         start_dir.append(ref[1] - ref[0] if c.start == "clamped" else None)
         end_dir.append(ref[-1] - ref[-2] if c.end == "clamped" else None)

@@ -111,11 +111,24 @@ def near_matrix(xa, xb, gap, blocks):
     bx0, bx1, by0, by1 = _boxes(xb, blocks[1])
     gx = jnp.maximum(jnp.maximum(ax0[:, None] - bx1[None], bx0[None] - ax1[:, None]), 0.0)
     gy = jnp.maximum(jnp.maximum(ay0[:, None] - by1[None], by0[None] - ay1[:, None]), 0.0)
-    reach = (gap * _REACH_MARGIN) ** 2
+    reach = (_widest(gap) * _REACH_MARGIN) ** 2
     near = ~(gx * gx + gy * gy >= reach[None, None])  # (rows, cols, B)
     if not SKIP_FAR_BLOCKS:  # true, but not known to XLA: the branch stays a branch
         near = near | (reach >= 0.0)[None, None]
     return jnp.any(near, axis=-1)
+
+
+def _widest(gap):
+    """The gap per collision (B,): a set's one gap, or the largest of a per-pair gap
+    (n_a, n_b, B), a graded beam's (a block at least that far apart carries no force)."""
+    return jnp.max(gap, axis=(0, 1)) if gap.ndim == 3 else gap
+
+
+def _gap_block(gap, rows, cols):
+    """The gap of a block (rows, cols): the set's one gap (B,), or its slice of a per-pair gap."""
+    if gap.ndim == 3:
+        return gap[rows[0] : rows[1], cols[0] : cols[1]]
+    return gap
 
 
 def near_blocks(xa, xb, gap, blocks):
@@ -129,20 +142,22 @@ def near_blocks(xa, xb, gap, blocks):
 
 
 def pair_geometry(xa, xb, gap):
-    """Approaches (n_a, n_b, B) of nodes xa against xb, with (dx, dy, dist, apart)."""
+    """Approaches (n_a, n_b, B) of nodes xa against xb, with (dx, dy, dist, apart); `gap`
+    one per collision (B,) or one per pair (n_a, n_b, B)."""
     dx = xa[:, None, 0] - xb[None, :, 0]  # (n_a, n_b, B): the batch stays the minor axis
     dy = xa[:, None, 1] - xb[None, :, 1]
     sq = dx * dx + dy * dy
     apart = sq > 0
     dist = jnp.where(apart, jnp.sqrt(jnp.where(apart, sq, 1.0)), 0.0)
-    return gap[None, None] - dist, (dx, dy, dist, apart)
+    gap = gap if gap.ndim == 3 else gap[None, None]
+    return gap - dist, (dx, dy, dist, apart)
 
 
 def _block_response(xa, xb, ps, k, fy, gap, rows, cols, width):
     """One block (ring nodes `rows`, beam nodes `cols`) of a node-to-node set: its nodal
     forces on each side, new permanent set, total pair force and dissipation per collision."""
     (i0, i1), (j0, j1) = rows, cols
-    delta, (dx, dy, dist, apart) = pair_geometry(xa[i0:i1], xb[j0:j1], gap)
+    delta, (dx, dy, dist, apart) = pair_geometry(xa[i0:i1], xb[j0:j1], _gap_block(gap, rows, cols))
     sl = (slice(i0, i1), slice(j0, j1))
     f, ps1, dc = contact_spring(delta, ps[sl], k[sl], fy[sl], width)
     c = jnp.where(apart, f / jnp.where(apart, dist, 1.0), 0.0)
@@ -170,7 +185,7 @@ def dense_pairs(p: PairLayout, x, gap, k, fy, ps, blocks, width):
 def _block_energy(xa, xb, ps, k, gap, rows, cols, width):
     """One block's stored contact energy per collision (B,) (see `_block_response`)."""
     (i0, i1), (j0, j1) = rows, cols
-    delta, _ = pair_geometry(xa[i0:i1], xb[j0:j1], gap)
+    delta, _ = pair_geometry(xa[i0:i1], xb[j0:j1], _gap_block(gap, rows, cols))
     sl = (slice(i0, i1), slice(j0, j1))
     return jnp.sum(contact_energy(delta, ps[sl], k[sl], width), axis=(0, 1))
 
@@ -256,6 +271,13 @@ def near_list(xa, xb, gap, blocks):
     return jnp.sum(near), order, _grid(n_a, bi), _grid(n_b, bj)
 
 
+def _gap_slice(gap, i0, j0, bi, bj):
+    """A listed block's gap: the set's one gap (B,), or its dynamic slice of a per-pair gap."""
+    if gap.ndim == 3:
+        return jax.lax.dynamic_slice(gap, (i0, j0, 0), (bi, bj, gap.shape[-1]))
+    return gap
+
+
 def _owned(start, nominal, size):
     """(size,) true for the nodes of a block it owns (not those of the block before)."""
     return start + jnp.arange(size) >= nominal
@@ -278,8 +300,8 @@ def listed_pairs(p: PairLayout, x, gap, k, fy, ps, blocks, width):
     mask_rows, mask_cols = p.n_a % bi != 0, p.n_b % bj != 0
     nom_a, start_a, nom_b, start_b = map(jnp.asarray, (nom_a, start_a, nom_b, start_b))
 
-    def block(xa_s, xb_s, ps_s, k_s, fy_s, own_a, own_b):
-        delta, (dx, dy, dist, apart) = pair_geometry(xa_s, xb_s, gap)
+    def block(xa_s, xb_s, ps_s, k_s, fy_s, gap_s, own_a, own_b):
+        delta, (dx, dy, dist, apart) = pair_geometry(xa_s, xb_s, gap_s)
         f, ps1, dc = contact_spring(delta, ps_s, k_s, fy_s, width)
         if mask_rows or mask_cols:  # the overlapped nodes of a shifted last block
             own = own_a[:, None, None] & own_b[None, :, None]
@@ -307,9 +329,10 @@ def listed_pairs(p: PairLayout, x, gap, k, fy, ps, blocks, width):
         ps_s, k_s, fy_s = (
             jax.lax.dynamic_slice(a, (i0, j0, 0), (bi, bj, *batch)) for a in (ps, k, fy)
         )
+        gap_s = _gap_slice(gap, i0, j0, bi, bj)
         own = _owned(i0, own_a[i], bi), _owned(j0, own_b[i], bj)
         f_a, f_b, ps1, f_total, dc = jax.lax.cond(
-            i < count, block, unused, xa_s, xb_s, ps_s, k_s, fy_s, *own
+            i < count, block, unused, xa_s, xb_s, ps_s, k_s, fy_s, gap_s, *own
         )
         ps = jax.lax.dynamic_update_slice(ps, ps1, (i0, j0, 0))
         f_a = jax.lax.dynamic_slice(fa, (i0, 0, 0), f_a.shape) + f_a
@@ -345,7 +368,7 @@ def listed_energy(p: PairLayout, x, gap, k, ps, blocks, width):
         xa_s = jax.lax.dynamic_slice(xa, (i0, 0, 0), (bi, 2, *batch))
         xb_s = jax.lax.dynamic_slice(xb, (j0, 0, 0), (bj, 2, *batch))
         ps_s, k_s = (jax.lax.dynamic_slice(a, (i0, j0, 0), (bi, bj, *batch)) for a in (ps, k))
-        delta, _ = pair_geometry(xa_s, xb_s, gap)
+        delta, _ = pair_geometry(xa_s, xb_s, _gap_slice(gap, i0, j0, bi, bj))
         e = contact_energy(delta, ps_s, k_s, width)
         if masked:
             own = _owned(i0, own_a[i], bi)[:, None, None] & _owned(j0, own_b[i], bj)[None, :, None]

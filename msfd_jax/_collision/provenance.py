@@ -90,6 +90,15 @@ def _fields(module) -> dict[str, Any]:
     return {f.name: _plain(getattr(module, f.name)) for f in dataclasses.fields(module)}
 
 
+def params_json(params) -> dict[str, Any]:
+    """A collision's groups as JSON numbers; a graded beam's `thickness_profile` as a list
+    (recorded only when given: the uniform beam's records stay as they were)."""
+    out = {k: float(np.asarray(v)) for k, v in params.scalars().items()}
+    if params.graded:
+        out["thickness_profile"] = [float(v) for v in np.asarray(params.thickness_profile)]
+    return out
+
+
 def mesh_json(mesh: Mesh) -> dict[str, Any]:
     # collapse_contacts is recorded only when on: records of the paper's model,
     # and the sweeps' stores holding them, stay as they were

@@ -26,7 +26,7 @@ from .._model.si import design_quantities
 from .._runtime.export import compile_program
 from .._runtime.mappings import release_if_near_limit
 from .attempts import RETRY_NOTE, STEP_CAUSE, keep_earlier, needs_retry, smaller_step
-from .provenance import mesh_json, settings_json, versions
+from .provenance import mesh_json, params_json, settings_json, versions
 
 FRACTION_KEYS = (
     "beam_bending",
@@ -303,10 +303,7 @@ class Collision:
             "t_max": float(self._host.ts[-1]),  # the cap used (derived when t_max is None)
             "wall_time_s": self.wall_time_s,
             "compile_time_s": self.compile_time_s,
-            "params": {
-                f.name: float(np.asarray(getattr(self.params, f.name)))
-                for f in dataclasses.fields(self.params)
-            },
+            "params": params_json(self.params),
         }
         record["mesh"] = mesh_json(self.mesh)
         if self.mesh.collapse_contacts:
@@ -359,7 +356,7 @@ def run(
     ):
         if not isinstance(value, kind):
             raise TypeError(f"{name} must be a msfd_jax.{kind.__name__}, got {value!r}")
-    for name, value in [(f.name, getattr(params, f.name)) for f in dataclasses.fields(params)] + [
+    for name, value in [*params.scalars().items()] + [
         ("contact_smoothing", contact_smoothing),
         ("yield_smoothing", yield_smoothing),
     ]:
@@ -368,6 +365,11 @@ def run(
                 f"{name} must be a single value: run() simulates one collision "
                 "(use msfd_jax.sweep or jax.vmap over simulate for many)"
             )
+    if params.graded and np.ndim(params.thickness_profile) != 1:
+        raise ValueError(
+            "thickness_profile must be one list of h_k/h_r (one value per beam segment): "
+            "run() simulates one collision (use msfd_jax.sweep for many profiles)"
+        )
     release_if_near_limit()  # before compiling: XLA would crash past vm.max_map_count
     scene = ring_on_beam(
         params, mesh, contact_smoothing=contact_smoothing, yield_smoothing=yield_smoothing

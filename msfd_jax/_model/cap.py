@@ -64,8 +64,9 @@ def stopping_time(scene: Scene, xp=jnp):
     v1 = xp.sqrt(xp.maximum(v0**2 - 2.0 * p_ring * RING_STROKE / mass, 0.0))
     t_ring = mass * (v0 - v1) / p_ring
     span = beam.reference[-1, 0]
-    p_bend = beam.section.plastic_moment / span
-    t_string = 0.5 * math.pi * xp.sqrt(mass * span / beam.section.plastic_axial)
+    # a graded beam: its weakest section (the longest stop, so the cap covers the run)
+    p_bend = xp.min(beam.section.plastic_moment) / span
+    t_string = 0.5 * math.pi * xp.sqrt(mass * span / xp.min(beam.section.plastic_axial))
     held = beam.free[-1, 0] < 0.5
 
     def t_beam(v):

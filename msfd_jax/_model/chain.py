@@ -30,7 +30,8 @@ _KINDS = ("free", "clamped", "symmetric")
 
 
 class Section(eqx.Module):
-    """Non-dimensional section properties of a uniform chain (Sect. 2 of MODEL.md)."""
+    """Non-dimensional section properties (Sect. 2 of MODEL.md): each a scalar for a uniform
+    chain, or one value per bar for a graded one (MODEL.md section 10)."""
 
     mass_per_length: Float[Array, ""]
     plastic_moment: Float[Array, ""]  # m_p
@@ -136,10 +137,21 @@ class Chain(eqx.Module):
         l0 = self.rest_length
         return (safe_norm(x[1:] - x[:-1]) - l0) / l0
 
+    @property
+    def graded(self) -> bool:
+        """True when the section varies along the chain (one value per bar, static)."""
+        return jnp.ndim(self.section.bending_rigidity) > 0
+
     def joint_stiffness_and_weight(self):
-        """Angular spring constants c_K (Eq. 13, 16) and energy weights of every joint."""
+        """Angular spring constants c_K (Eq. 13, 16) and energy weights of every joint.
+
+        Graded (MODEL.md section 10): an interior joint is its two half-bars' flexibilities in
+        series, c = 2 / (l_a/EI_a + l_b/EI_b) (Eq. 13 when EI_a = EI_b); a boundary joint
+        takes its end bar's section."""
         l0 = self.rest_length
         ei = self.section.bending_rigidity
+        if self.graded:
+            return self._graded_joints(l0, ei)
         stiffness = [2.0 * ei / (l0[:-1] + l0[1:])]
         weight = [jnp.ones(self.n_nodes - 2)]
         if self.start == "symmetric":
@@ -153,6 +165,37 @@ class Chain(eqx.Module):
             weight.append(jnp.array([1.0]))
         return jnp.concatenate(stiffness), jnp.concatenate(weight)
 
+    def _graded_joints(self, l0, ei):
+        # 2 / (l_a/EI_a + l_b/EI_b) written as 2 EI_a / (l_a + l_b EI_a/EI_b): the uniform
+        # chain's 2 EI / (l_a + l_b) bit for bit where EI_a == EI_b (an equal profile is
+        # the uniform beam to rounding), and the same function (and derivative) elsewhere
+        stiffness = [2.0 * ei[:-1] / (l0[:-1] + l0[1:] * (ei[:-1] / ei[1:]))]
+        weight = [jnp.ones(self.n_nodes - 2)]
+        if self.start == "symmetric":
+            stiffness.insert(0, (ei[0] / l0[0])[None])
+            weight.insert(0, jnp.array([0.5]))
+        elif self.start == "clamped":
+            stiffness.insert(0, (4.0 * ei[0] / l0[0])[None])
+            weight.insert(0, jnp.array([1.0]))
+        if self.end == "clamped":
+            stiffness.append((4.0 * ei[-1] / l0[-1])[None])
+            weight.append(jnp.array([1.0]))
+        return jnp.concatenate(stiffness), jnp.concatenate(weight)
+
+    def joint_plastic_moment(self):
+        """Yield moment m_p of every joint: the section's (a scalar) for a uniform chain;
+        graded, the weaker adjacent section's, min(m_p,a, m_p,b), and a boundary joint its
+        end bar's (MODEL.md section 10)."""
+        mp = self.section.plastic_moment
+        if not self.graded:
+            return mp
+        parts = [jnp.minimum(mp[:-1], mp[1:])]
+        if self.start != "free":
+            parts.insert(0, mp[:1])
+        if self.end != "free":
+            parts.append(mp[-1:])
+        return jnp.concatenate(parts)
+
     def tributary_length(self) -> Float[Array, " nodes"]:
         """Length of structure each node represents, (l_i + l_j)/2 or l_i/2 at ends (Eq. 11)."""
         l0 = self.rest_length
@@ -161,7 +204,22 @@ class Chain(eqx.Module):
 
 
 def lumped_masses(reference, mass_per_length) -> Float[Array, " nodes"]:
-    """Nodal masses mu (l_i + l_j)/2, mu l_i/2 at the ends (Eq. 11, 15)."""
+    """Nodal masses mu (l_i + l_j)/2, mu l_i/2 at the ends (Eq. 11, 15); with one mass per
+    length per bar (a graded chain), half of each adjacent bar's mass, (mu_i l_i + mu_j l_j)/2."""
     l0 = safe_norm(reference[1:] - reference[:-1])
     pad = jnp.zeros(1)
+    if jnp.ndim(mass_per_length) > 0:  # (mu_L l_L + mu_R l_R)/2 as mu_L (l_L + l_R mu_R/mu_L)/2
+        left, right = side_values(mass_per_length)  # the uniform formula where mu_L == mu_R
+        return (
+            0.5 * left * (jnp.concatenate([pad, l0]) + jnp.concatenate([l0, pad]) * (right / left))
+        )
     return 0.5 * mass_per_length * (jnp.concatenate([pad, l0]) + jnp.concatenate([l0, pad]))
+
+
+def side_values(per_bar):
+    """Per node, the values of the bar on its left and on its right (an end node's missing
+    bar takes its one bar's value): for a graded chain's nodal sums."""
+    return (
+        jnp.concatenate([per_bar[:1], per_bar]),
+        jnp.concatenate([per_bar, per_bar[-1:]]),
+    )

@@ -43,13 +43,14 @@ class NodeToNodeContact(AbstractContact):
 
     approach = gap - |x_I - x_J|, with gap = (h_a + h_b) / 2 (centre lines touch when the
     surfaces do). Pairs are dense (n_a x n_b): small for this model, and no pair is ever missed.
+    `gap` is one number, or one per pair (n_a, n_b) where the thickness varies (a graded beam).
     """
 
     chain_a: int = eqx.field(static=True)
     chain_b: int = eqx.field(static=True)
     nodes_a: tuple[int, ...] = eqx.field(static=True)
     nodes_b: tuple[int, ...] = eqx.field(static=True)
-    gap: Float[Array, ""]
+    gap: Float[Array, ""] | Float[Array, "a b"]
     stiffness: Float[Array, "a b"]
     yield_force: Float[Array, "a b"]
     spacing_b: float = eqx.field(static=True)
@@ -62,9 +63,10 @@ class NodeToNodeContact(AbstractContact):
 
     def max_partners(self):
         # nodes of the other side closer than the gap on a straight row of spacing s
+        gap = jnp.max(self.gap) if jnp.ndim(self.gap) else self.gap
         return (
-            1.0 + jnp.floor(2.0 * self.gap / self.spacing_b),
-            1.0 + jnp.floor(2.0 * self.gap / self.spacing_a),
+            1.0 + jnp.floor(2.0 * gap / self.spacing_b),
+            1.0 + jnp.floor(2.0 * gap / self.spacing_a),
         )
 
     def masses(self, chain_masses):

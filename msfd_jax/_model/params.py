@@ -190,6 +190,12 @@ class CollisionParams(eqx.Module):
     - `span_ratio`: L_b/R, half span of the beam.
     - `width_ratio`: b_b/b_r.
     - `axial_constraint`: 1.0 (x_E = 0, Eq. 20) or 0.0 (free to slide).
+    - `thickness_profile`: None (a uniform beam of `thickness_ratio`), or a graded beam
+      (MODEL.md section 10): h_k/h_r of every beam segment k, O -> E (one value per segment of
+      the mesh's beam: 25 on the paper's mesh), which then replaces `thickness_ratio` for the
+      beam; `thickness_ratio` stays the uniform beam a graded one is compared with
+      (`beam_mass_ratio`). An array like every other field: profiles vmap and differentiate,
+      and a new profile of the same length compiles nothing new.
     """
 
     thickness_ratio: Any = 2.5
@@ -200,10 +206,14 @@ class CollisionParams(eqx.Module):
     span_ratio: Any = 3.0
     width_ratio: Any = 1.0
     axial_constraint: Any = 1.0
+    thickness_profile: Any = eqx.field(default=None, converter=lambda v: _profile_array(v))
 
     def __check_init__(self):
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
+            if f.name == "thickness_profile":
+                _check_profile(value)
+                continue
             if f.name == "axial_constraint":
                 if isinstance(value, bool):
                     continue
@@ -222,6 +232,19 @@ class CollisionParams(eqx.Module):
                 continue
             _check_value(f.name, value, *_RANGES[f.name])
 
+    @property
+    def graded(self) -> bool:
+        """True for a graded beam (a `thickness_profile` is given)."""
+        return self.thickness_profile is not None
+
+    def scalars(self) -> dict[str, Any]:
+        """The one-number groups (every field but `thickness_profile`), by name."""
+        return {
+            f.name: getattr(self, f.name)
+            for f in dataclasses.fields(self)
+            if f.name != "thickness_profile"
+        }
+
     def as_arrays(self) -> CollisionParams:
         """Every field as a float64 array (what the compiled solver sees)."""
         return jax.tree_util.tree_map(lambda v: jnp.asarray(v, dtype=jnp.float64), self)
@@ -232,8 +255,58 @@ class CollisionParams(eqx.Module):
         return 0.5 * (self.mass_ratio + math.pi / 2) * self.velocity**2
 
 
+PROFILE_FIELD = "thickness_profile"
+_PROFILE_RANGE = _RANGES["thickness_ratio"]
+
+
+def _profile_array(value):
+    """A list or tuple profile as one numpy array (a pytree leaf, not one leaf per value);
+    anything else as given (checked in `_check_profile`)."""
+    if isinstance(value, list | tuple):
+        try:
+            return np.asarray(value)
+        except (TypeError, ValueError):  # ragged: refused by the check, naming the field
+            return value
+    return value
+
+
+def _check_profile(value) -> None:
+    """A thickness profile: None, or a 1-D list/array (a batch of them: 2-D) of h_k/h_r, each
+    in `thickness_ratio`'s range. Its length is checked against the mesh in `validate`."""
+    if value is None or isinstance(value, jax.core.Tracer):
+        return
+    arr = _real(PROFILE_FIELD, value)
+    if arr.ndim < 1 or arr.shape[-1] < 1:
+        raise ValueError(
+            f"{PROFILE_FIELD} (h_k/h_r of every beam segment, O to E) must be a list with one "
+            f"value per beam segment, got {_show(value)}"
+        )
+    low, high = _PROFILE_RANGE[:2]
+    bad = arr[~(np.isfinite(arr) & (arr > low) & (arr <= high))]
+    if bad.size:
+        raise ValueError(
+            f"{PROFILE_FIELD} (h_k/h_r of every beam segment, O to E) has {bad.ravel()[0]:g}, "
+            f"out of range; allowed (0, {high:g}] for every segment"
+        )
+
+
+def beam_segments(mesh: Mesh) -> int:
+    """The number of beam segments O -> E (the length of a thickness profile)."""
+    return mesh.beam_contact_segments + mesh.beam_outer_segments
+
+
 def validate(params: CollisionParams, mesh: Mesh) -> None:
     """Check the combination of parameters and mesh (what a single field cannot check)."""
+    profile = params.thickness_profile
+    if profile is not None and not isinstance(profile, jax.core.Tracer):
+        n = beam_segments(mesh)
+        if np.shape(profile)[-1] != n:
+            raise ValueError(
+                f"{PROFILE_FIELD} has {np.shape(profile)[-1]} values; the mesh's beam has "
+                f"{n} segments (beam_contact_segments {mesh.beam_contact_segments} + "
+                f"beam_outer_segments {mesh.beam_outer_segments}, O to E): give one h_k/h_r "
+                f"per segment, each in (0, {_PROFILE_RANGE[1]:g}]"
+            )
     try:
         _check_value("span_ratio", params.span_ratio, mesh.contact_region, 1.0e4, False, True)
     except ValueError as error:  # the lower bound is the mesh's: say so

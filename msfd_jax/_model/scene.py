@@ -12,6 +12,7 @@ Builders:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import equinox as eqx
@@ -21,7 +22,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from .._runtime import export as _export
-from .chain import Chain, lumped_masses, rectangular_section
+from .chain import Chain, lumped_masses, rectangular_section, side_values
 from .collapse import collapse_contacts
 from .contact import (
     AbstractContact,
@@ -132,12 +133,74 @@ def beam_chain(params: CollisionParams, mesh: Mesh) -> Chain:
     xs = jnp.concatenate([jnp.asarray(inner), outer[1:]])
     xy = jnp.stack([xs, jnp.zeros_like(xs)], axis=-1)
     section = rectangular_section(
-        params.thickness_ratio, params.width_ratio, params.modulus_ratio, params.slenderness
+        beam_thickness(params), params.width_ratio, params.modulus_ratio, params.slenderness
     )
     mass = lumped_masses(xy, section.mass_per_length)
     free = jnp.ones_like(xy).at[0, 0].set(0.0).at[-1, 1].set(0.0)
     free = free.at[-1, 0].set(1.0 - params.axial_constraint)
     return Chain("beam", "symmetric", "free", xy, mass, free, section)
+
+
+def beam_thickness(params: CollisionParams):
+    """h/h_r of the beam: `thickness_ratio`, or one value per segment (`thickness_profile`)."""
+    if params.thickness_profile is None:
+        return params.thickness_ratio
+    return params.thickness_profile
+
+
+def contact_gap(params: CollisionParams, beam: Chain, n_b: int):
+    """Critical distance (h_r + h_b)/(2R) of the ring-beam pairs: a scalar for a uniform beam;
+    graded, one per beam node of OC, from the tributary-length mean thickness of the node's
+    adjacent segments (MODEL.md section 10). Returns (gap, gap at O)."""
+    if params.thickness_profile is None:
+        gap = (1.0 + params.thickness_ratio) / (2.0 * params.slenderness)
+        return gap, gap
+    (t_l, t_r), (l_l, l_r) = side_values(params.thickness_profile), _side_lengths(beam)
+    # (l_L t_L + l_R t_R)/(l_L + l_R) as t_L + l_R (t_R - t_L)/(l_L + l_R): exactly t where
+    # the two sides are equal (an equal profile is the uniform beam to rounding)
+    mean = t_l + l_r * (t_r - t_l) / (l_l + l_r)
+    # O's gap as the uniform beam's scalar expression, plus each node's difference from it:
+    # an equal profile gives the uniform gap bit for bit (a vector division may round apart)
+    gap_o = (1.0 + t_l[0]) / (2.0 * params.slenderness)
+    return gap_o + (mean[:n_b] - t_l[0]) / (2.0 * params.slenderness), gap_o
+
+
+def _beam_blocks(params, slender, beam: Chain, n_b: int, width):
+    """Stiffness of the beam's contact block at each node of OC: uniform, one block over the
+    tributary length; graded, the node's two half-segments side by side (in parallel), each
+    of its own thickness (MODEL.md section 10)."""
+    beta = params.modulus_ratio
+    if params.thickness_profile is None:
+        lt_b = beam.tributary_length()[:n_b]
+        return block_stiffness(beta, slender, lt_b, params.thickness_ratio, width)
+    (t_l, t_r), (l_l, l_r) = side_values(params.thickness_profile), _side_lengths(beam)
+    # sum of 8 beta (b/b_r) (R/h_r)^3 (l/2)/t over the two half-bars, written as one block of
+    # thickness t_L over (l_L + l_R t_L/t_R)/2: the uniform block bit for bit where t_L == t_R
+    tributary = 0.5 * (l_l + l_r * (t_l / t_r))
+    return block_stiffness(beta, slender, tributary, t_l, width)[:n_b]
+
+
+def _side_lengths(beam: Chain):
+    """Per node, the rest length of the bar on its left and on its right (0 past an end)."""
+    l0, pad = beam.rest_length, jnp.zeros(1)
+    return jnp.concatenate([pad, l0]), jnp.concatenate([l0, pad])
+
+
+def beam_mass(params: CollisionParams, mesh: Mesh):
+    """Mass of the half beam in units of mu_r R (ring units, Eq. 1): (b_b/b_r) sum_k t_k l_k,
+    t_k = h_k/h_r of each segment (`thickness_ratio` for a uniform beam). jit/vmap/grad-able."""
+    validate(params, mesh)
+    p = params.as_arrays()
+    beam = beam_chain(p, mesh)
+    return p.width_ratio * jnp.sum(beam_thickness(p) * beam.rest_length)
+
+
+def beam_mass_ratio(params: CollisionParams, mesh: Mesh):
+    """A beam's mass over that of the uniform beam of `params.thickness_ratio` (same span,
+    width and mesh): sum t_k l_k / (t_ref sum l_k); 1 for a uniform beam (MODEL.md section 10).
+    """
+    uniform = dataclasses.replace(params, thickness_profile=None)
+    return beam_mass(params, mesh) / beam_mass(uniform, mesh)
 
 
 def _ring_beam_contact(params, mesh, ring: Chain, beam: Chain, gap) -> NodeToNodeContact:
@@ -148,13 +211,15 @@ def _ring_beam_contact(params, mesh, ring: Chain, beam: Chain, gap) -> NodeToNod
     lt_r = ring.tributary_length()
     lt_b = beam.tributary_length()[:n_b]
     k_r = block_stiffness(beta, slender, lt_r, 1.0, width)
-    k_b = block_stiffness(beta, slender, lt_b, params.thickness_ratio, width)
+    k_b = _beam_blocks(params, slender, beam, n_b, width)
     k = 1.0 / (1.0 / k_r[:, None] + 1.0 / k_b[None, :])
     f_y = jnp.minimum(
         block_yield(slender, lt_r, width)[:, None], block_yield(slender, lt_b, width)[None, :]
     )
     ring_spacing = 2.0 * math.sin(math.pi / 4 / mesh.ring_segments)
     beam_spacing = mesh.contact_region / mesh.beam_contact_segments
+    if jnp.ndim(gap) > 0:  # graded: one critical distance per pair (by beam node)
+        gap = jnp.broadcast_to(gap[None, :], k.shape)
     return NodeToNodeContact(
         chain_a=0,
         chain_b=1,
@@ -177,7 +242,8 @@ def ring_on_beam(
 ) -> Scene:
     """The paper's collision: the quarter ring flies at v0 onto the half beam (Sect. 2, 3).
 
-    At tau = 0 the surfaces just touch at S-O (gap (h_r + h_b)/(2R)); every ring node moves at
+    At tau = 0 the surfaces just touch at S-O (gap (h_r + h_b)/(2R), h_b the thickness at O
+    for a graded beam, `params.thickness_profile`); every ring node moves at
     v0 towards the beam (+y) and the beam is at rest (Eq. 24). With `mesh.collapse_contacts`
     the scene also has the ring-block and ring-ring contacts of a collapse (`collapse`),
     after the ring-beam contact (which stays contact set 0).
@@ -200,9 +266,9 @@ def _ring_on_beam(
     p: CollisionParams, mesh: Mesh, contact_smoothing, yield_smoothing, smooth=(True, True)
 ) -> Scene:
     # compiled once per mesh: building the scene op by op costs seconds, compiled microseconds
-    gap = (1.0 + p.thickness_ratio) / (2.0 * p.slenderness)
-    ring = ring_chain(p, mesh, -gap)
     beam = beam_chain(p, mesh)
+    gap, gap_o = contact_gap(p, beam, mesh.beam_contact_segments + 1)
+    ring = ring_chain(p, mesh, -gap_o)  # S just touches O
     contacts = (_ring_beam_contact(p, mesh, ring, beam, gap),)
     if mesh.collapse_contacts:
         contacts = contacts + collapse_contacts(p, mesh, ring)

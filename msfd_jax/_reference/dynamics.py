@@ -45,7 +45,7 @@ def respond(scene: Scene, xs, rotation_p, strain_p, permanent_set) -> Response:
         s = c.section
         angle = unwrap_near(angle, rp)  # a fold past pi: no 2 pi jump
         m, rp1, d_rot = elastic_plastic(
-            angle, rp, stiffness, s.plastic_moment, scene.yield_smoothing
+            angle, rp, stiffness, c.joint_plastic_moment(), scene.yield_smoothing
         )
         n, sp1, d_ax = elastic_plastic(
             strain, sp, s.axial_modulus, s.plastic_axial, scene.yield_smoothing

@@ -109,7 +109,7 @@ def _viscoplastic_response(scene: Scene, y: Viscoplastic, eta):
         s = c.section
         moment = stiffness * (angle - rp)
         normal = s.axial_modulus * (strain - sp)
-        rot_rate, bend_power = _overstress_rate(moment, s.plastic_moment, stiffness, eta)
+        rot_rate, bend_power = _overstress_rate(moment, c.joint_plastic_moment(), stiffness, eta)
         strain_rate, axial_power = _overstress_rate(normal, s.plastic_axial, s.axial_modulus, eta)
         l0 = c.rest_length
         g_chains.append((weight * moment, normal * l0))
