@@ -6,6 +6,15 @@ Imports `msfd_jax`; `msfd_jax` never imports this package (its CLI loads it lazi
 
 from ._conditions import Conditions
 from ._design import DEFAULT_BOUNDS, Box, Design, default_box, project
+from ._graded import (
+    DEFAULT_POINTS,
+    QUANTITIES,
+    GradedDesign,
+    GradedProblem,
+    design,
+    graded_problem,
+    quantities,
+)
 from ._gradient import (
     DEFAULT_SMOOTHING,
     MODES,
@@ -27,6 +36,13 @@ from ._problem import Evaluation, Problem, evaluate, make_problem
 from ._tune import DEFAULT_STAGES, Stage, TuneResult, achievable_range, tune
 
 __all__ = [
+    "DEFAULT_POINTS",
+    "QUANTITIES",
+    "GradedDesign",
+    "GradedProblem",
+    "design",
+    "graded_problem",
+    "quantities",
     "Conditions",
     "DEFAULT_STAGES",
     "Stage",
