@@ -410,6 +410,7 @@ def design(
     penalty: float = 50.0,
     patience: int = 8,
     tolerance: float = 2e-3,
+    aim: float = 0.005,
     checkpoints: int | None = None,
     progress: Callable[[int, dict], None] | None = None,
 ) -> GradedDesign:
@@ -421,8 +422,9 @@ def design(
     values), clipped into the bounds and the budget. `steps`: at most this many iterations,
     each a sharp run (values, limits) and one reverse-mode gradient of the surrogate; stops
     early when the best feasible objective has not improved by `tolerance` (relative) for
-    `patience` iterations. `checkpoints`: diffrax's RecursiveCheckpointAdjoint (None: every
-    step stored, the fastest gradient; memory in benchmarks/results/design.md).
+    `patience` iterations. `aim`: the multipliers steer to this fraction inside each limit
+    (the limits themselves are checked exactly). `checkpoints`: diffrax's
+    RecursiveCheckpointAdjoint (None: its default; benchmarks/results/design.md).
     """
     t0 = time.perf_counter()
     limits = dict(limits or {})
@@ -496,12 +498,14 @@ def design(
             closest = (c.copy(), values, violation, raw)
         if it == steps or stale >= patience:
             break
-        g = {k: values[k] / v - 1.0 for k, v in limits.items()}
+        # the multipliers aim a little inside each limit (`aim`), so that the iterates, which
+        # approach the boundary from either side, land on the feasible one
+        g = {k: values[k] / (v * (1.0 - aim)) - 1.0 for k, v in limits.items()}
         for k in limits:
             multipliers[k] = max(0.0, multipliers[k] + penalty * g[k])
         weights = {minimise: 1.0 / scale}
         for k, v in limits.items():  # PHR: d/dq of (max(0, lam + mu g)^2 - lam^2) / (2 mu)
-            weights[k] = max(0.0, multipliers[k] + penalty * g[k]) / v
+            weights[k] = max(0.0, multipliers[k] + penalty * g[k]) / (v * (1.0 - aim))
         weights = {k: jnp.asarray(w, jnp.float64) for k, w in weights.items()}
         _, grad = _surrogate_grad(controls, weights, problem, minimise, checkpoints)
         evaluations += GRADIENT_COST * (
