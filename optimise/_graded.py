@@ -424,7 +424,7 @@ def design(
     early when the best feasible objective has not improved by `tolerance` (relative) for
     `patience` iterations. `aim`: the multipliers steer to this fraction inside each limit
     (the limits themselves are checked exactly). `checkpoints`: diffrax's
-    RecursiveCheckpointAdjoint (None: its default; benchmarks/results/design.md).
+    RecursiveCheckpointAdjoint (None: one per step bound, nothing recomputed).
     """
     t0 = time.perf_counter()
     limits = dict(limits or {})
@@ -465,6 +465,9 @@ def design(
     stale = 0
     evaluations = 0.0
     worst = problem.conditions is not None
+    # every step's state stored by default: the gradient then recomputes nothing (5.2 s
+    # against 8.4 s with diffrax's default on the paper mesh, 8192 steps of a few kB each)
+    stored = int(problem.settings.max_steps) if checkpoints is None else checkpoints
     for it in range(steps + 1):
         controls = jnp.asarray(c)
         raw, (codes, _) = _sharp(controls, problem)
@@ -507,7 +510,7 @@ def design(
         for k, v in limits.items():  # PHR: d/dq of (max(0, lam + mu g)^2 - lam^2) / (2 mu)
             weights[k] = max(0.0, multipliers[k] + penalty * g[k]) / (v * (1.0 - aim))
         weights = {k: jnp.asarray(w, jnp.float64) for k, w in weights.items()}
-        _, grad = _surrogate_grad(controls, weights, problem, minimise, checkpoints)
+        _, grad = _surrogate_grad(controls, weights, problem, minimise, stored)
         evaluations += GRADIENT_COST * (
             1 if problem.conditions is None else len(problem.conditions)
         )
