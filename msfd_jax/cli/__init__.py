@@ -1,7 +1,7 @@
 """Command line ``msfd``: one module per subcommand, registered in `COMMANDS`.
 
 ``run`` simulates one collision, ``sweep`` a batch, ``bench`` and ``reproduce`` run the
-studies (`msfd_jax.studies`), ``tune`` comes from `optimise`. Each subcommand module gives
+studies (`msfd_jax.studies`), ``tune`` and ``design`` come from `optimise`. Each subcommand module gives
 ``add_arguments(parser)`` and ``handle(args) -> exit code``; what they share (argument groups,
 exit codes, `UsageError`, the compile cache) is the leaf `msfd_jax.cli.common`, which imports
 no subcommand.
@@ -18,7 +18,7 @@ from collections.abc import Callable, Sequence
 
 import msfd_jax
 
-from . import bench, case, reproduce, run, sweep, tune
+from . import bench, case, design, reproduce, run, sweep, tune
 from .common import (
     EXIT_OK,
     EXIT_SOLVE,
@@ -78,6 +78,11 @@ COMMANDS: dict[str, tuple[str, Callable, Callable]] = {
         "tune the beam thickness to a target energy split",
         tune.add_arguments,
         tune.handle,
+    ),
+    "design": (
+        "design a graded beam (a thickness per segment) under limits, in SI",
+        design.add_arguments,
+        design.handle,
     ),
 }
 

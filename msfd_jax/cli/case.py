@@ -33,6 +33,7 @@ SECTIONS = {
     "targets": "targets",
     "tuning": "tuning",
     "robust": "robust",
+    "design": "design",
 }
 # In a sweep, [collision] may hold axes too (one value or a list).
 ALIASES = {"axes": ("collision",)}
