@@ -1,8 +1,8 @@
 """Command line ``msfd``: one module per subcommand, registered in `COMMANDS`.
 
 ``run`` simulates one collision, ``sweep`` a batch, ``bench`` and ``reproduce`` run the
-studies (`msfd_jax.studies`), ``tune`` and ``design`` come from `optimise`. Each subcommand module gives
-``add_arguments(parser)`` and ``handle(args) -> exit code``; what they share (argument groups,
+studies (`msfd_jax.studies`), ``tune`` and ``design`` come from `optimise`. Each
+subcommand module gives ``add_arguments(parser)`` and ``handle(args) -> exit code``; what they share (argument groups,
 exit codes, `UsageError`, the compile cache) is the leaf `msfd_jax.cli.common`, which imports
 no subcommand.
 
