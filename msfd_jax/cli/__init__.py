@@ -2,9 +2,9 @@
 
 ``run`` simulates one collision, ``sweep`` a batch, ``bench`` and ``reproduce`` run the
 studies (`msfd_jax.studies`), ``tune`` and ``design`` come from `optimise`. Each
-subcommand module gives ``add_arguments(parser)`` and ``handle(args) -> exit code``; what they share (argument groups,
-exit codes, `UsageError`, the compile cache) is the leaf `msfd_jax.cli.common`, which imports
-no subcommand.
+subcommand module gives ``add_arguments(parser)`` and ``handle(args) -> exit code``; what
+they share (argument groups, exit codes, `UsageError`, the compile cache) is the leaf
+`msfd_jax.cli.common`, which imports no subcommand.
 
 Exit codes: 0 success, 2 bad input (argparse or parameter validation), 3 failed solve
 (``bench``: 1 some row not as expected; ``tune``: 4 target not met).
