@@ -93,6 +93,7 @@ class GradedProblem(eqx.Module):
     - `lengths`: (segments,) beam segment lengths (units of R).
     - `scales`: the SI scales as arrays (length R, time T, force M_pr/R).
     - `conditions`: impact samples (`Conditions`) or None.
+    - `bounds`: the thickness bounds (h/h_r) the cap and step bound were chosen for.
     """
 
     params: m.CollisionParams
@@ -104,6 +105,7 @@ class GradedProblem(eqx.Module):
     time_scale: jax.Array
     force_scale: jax.Array
     conditions: Conditions | None = None
+    bounds: tuple[float, float] = eqx.field(static=True, default=(1.0, 5.0))
 
     @property
     def points(self) -> int:
@@ -153,6 +155,9 @@ def graded_problem(
     `conditions` (so that no design compiles a new program or runs out of steps)."""
     n = m.beam_segments(mesh)
     points = n if profile_points is None else profile_points
+    low, high = (float(v) for v in bounds)
+    if not 0.0 < low < high <= 100.0:
+        raise ValueError(f"bounds = {bounds!r}: give 0 < lower < upper <= 100 (h/h_r)")
     _check_count("profile_points", points, 2, n)
     if params.graded:
         raise ValueError(
@@ -180,6 +185,7 @@ def graded_problem(
         jnp.asarray(scales.time, f),
         jnp.asarray(scales.force, f),
         conditions,
+        (float(bounds[0]), float(bounds[1])),
     )
 
 
@@ -403,7 +409,7 @@ def design(
     minimise: str = "deceleration_10ms",
     limits: Mapping[str, float] | None = None,
     max_beam_mass_ratio: float | None = None,
-    thickness_bounds: tuple[float, float] = (1.0, 5.0),
+    thickness_bounds: tuple[float, float] | None = None,
     start=None,
     steps: int = 30,
     learning_rate: float = 0.04,
@@ -416,7 +422,8 @@ def design(
 ) -> GradedDesign:
     """Minimise `minimise` (a `QUANTITIES` name) subject to upper `limits` on others
     ({quantity: limit in its SI unit}, e.g. {"deflection": 0.16}), the beam mass ratio at most
-    `max_beam_mass_ratio` and every thickness in `thickness_bounds` (h/h_r).
+    `max_beam_mass_ratio` and every thickness in `thickness_bounds` (h/h_r; None: the
+    problem's bounds).
 
     Starts from the uniform beam of the problem's ``thickness_ratio`` (or `start`, control
     values), clipped into the bounds and the budget. `steps`: at most this many iterations,
@@ -436,10 +443,17 @@ def design(
     for name, value in limits.items():
         if not (np.isfinite(value) and value > 0):
             raise ValueError(f"limit on {name} = {value!r}: give a positive number")
+    thickness_bounds = problem.bounds if thickness_bounds is None else thickness_bounds
     low, high = (float(v) for v in thickness_bounds)
     if not 0.0 < low < high <= 100.0:
         raise ValueError(
             f"thickness_bounds = {thickness_bounds!r}: give 0 < lower < upper <= 100 (h/h_r)"
+        )
+    if low < problem.bounds[0] or high > problem.bounds[1]:
+        raise ValueError(
+            f"thickness_bounds = {thickness_bounds!r} reach outside the problem's bounds "
+            f"{problem.bounds} (its cap and step bound cover those): build the problem with "
+            "graded_problem(..., bounds=...)"
         )
     row = problem.mass_row()
     if max_beam_mass_ratio is not None:

@@ -198,6 +198,8 @@ def test_design_refuses_bad_inputs(small_design):
         o.design(problem, thickness_bounds=(3.0, 2.0))
     with pytest.raises(ValueError, match="cannot also be limited"):
         o.design(problem, limits={"deceleration_10ms": 100.0})
+    with pytest.raises(ValueError, match="reach outside the problem's bounds"):
+        o.design(problem, thickness_bounds=(0.5, 5.0))
 
 
 def test_msfd_design_json(tmp_path, capsys, small_design):
