@@ -30,7 +30,8 @@ def _run_chunk(function, columns, rows: range, chunk_size: int, *args):
     """
     index = np.asarray(rows)
     padded = np.concatenate([index, np.full(chunk_size - len(index), index[0])])
-    names = [f.name for f in dataclasses.fields(CollisionParams)]
+    # every field `columns` has (a sweep without profiles has no `thickness_profile`)
+    names = [f.name for f in dataclasses.fields(CollisionParams) if f.name in columns]
     params = CollisionParams(**{k: jnp.asarray(columns[k][padded]) for k in names})
     if "_dt_critical" in columns:
         args = (jnp.asarray(columns["_dt_critical"][padded]), *args)

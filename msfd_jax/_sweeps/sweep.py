@@ -4,6 +4,11 @@ A sweep is a grid (a dict of value lists) or a list of collisions (a list of dic
 or in SI (`_model.si.si_sweep`), every value validated before anything is traced. The result is a
 `SweepTable`, one row per collision with its inputs and every output of ``msfd run --json``;
 a failed run is a row with its status and `diagnose`'s message, never a silent NaN.
+
+Graded beams: a collision of a list (or `base`) may give a ``thickness_profile``. Inside, the
+profiles are one (n, segments) input column; the table has one column per segment,
+``thickness_profile_0`` ... (`table.profile_names`; ``table["thickness_profile"]`` stacks them)
+and ``beam_mass_ratio``. A sweep without profiles has neither, and runs as before.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -42,8 +48,8 @@ from .._collision.attempts import (
 from .._collision.provenance import mesh_json
 from .._collision.run import FRACTION_KEYS, balance_warning, diagnose, fractions
 from .._model.cap import T_MAX_CEILING
-from .._model.params import CollisionParams, Mesh, _check_count, validate
-from .._model.scene import _ring_on_beam, smoothing_width
+from .._model.params import PROFILE_FIELD, CollisionParams, Mesh, _check_count, validate
+from .._model.scene import _ring_on_beam, beam_mass_ratio, smoothing_width
 from .._model.si import si_columns, si_sweep
 from .._runtime.mappings import release_if_near_limit
 from .._runtime.progress import SweepProgress as _SweepProgress
@@ -51,9 +57,11 @@ from .cluster import solve_on_cluster
 from .queue import DEFAULT_SLOTS, default_slots, default_workers, run_queue
 from .shard import _critical_chunk, _run_chunk, _sharded_solver
 from .store import match_rows, open_store
-from .table import SweepTable
+from .table import SweepTable, profile_names
 
-INPUTS = tuple(f.name for f in dataclasses.fields(CollisionParams))
+# The one-number inputs, a column each; a graded beam's `PROFILE_FIELD` is a column of its own,
+# (n, segments), present only in a sweep that has profiles (`input_columns` flattens it)
+INPUTS = tuple(f.name for f in dataclasses.fields(CollisionParams) if f.name != PROFILE_FIELD)
 KINETIC_KEYS = ("kinetic_ring", "kinetic_block", "kinetic_beam")
 SOLVED_OUTPUTS = (
     *FRACTION_KEYS,
@@ -88,9 +96,21 @@ def collisions(
     A dict of value lists is a full grid (Cartesian product, last key fastest); a list of
     dicts is a list of collisions. Inputs not given take their value from `base`. Booleans
     (``axial_constraint``) become 1.0 / 0.0. Values are not range-checked here (`sweep` does).
+
+    Graded beams: when a collision of the list (or `base`) has a ``thickness_profile``, the
+    columns also hold it, (n, segments); a collision without one (or with None) is then given
+    the equal profile of its ``thickness_ratio`` (the uniform beam, to rounding). Every
+    profile of a sweep has the same length. A profile is no grid axis: give a list, or one
+    profile for the whole grid in `base`.
     """
     if isinstance(grid_or_list, Mapping):
         _check_names(grid_or_list)
+        if PROFILE_FIELD in grid_or_list:
+            raise ValueError(
+                f"{PROFILE_FIELD} cannot be a grid axis: give a list of collisions (one dict "
+                f"each, with its {PROFILE_FIELD}), or one profile for the whole grid as "
+                f"base=CollisionParams({PROFILE_FIELD}=[...])"
+            )
         axes = {k: _values(k, v) for k, v in grid_or_list.items()}
         points = list(itertools.product(*axes.values()))
         given = {k: [p[i] for p in points] for i, k in enumerate(axes)}
@@ -101,7 +121,7 @@ def collisions(
             if not isinstance(row, Mapping):
                 raise TypeError(f"a sweep list holds dicts of inputs, got {row!r}")
             _check_names(row)
-        names = {k for row in rows for k in row}
+        names = {k for row in rows for k in row} - {PROFILE_FIELD}
         given = {k: [row.get(k, _base(base, k)) for row in rows] for k in names}
         n, grid = len(rows), None
     if n == 0:
@@ -109,13 +129,81 @@ def collisions(
     columns = {k: np.full(n, _base(base, k)) for k in INPUTS}
     for k, v in given.items():
         columns[k] = np.asarray([_number(k, x) for x in v], dtype=np.float64)
+    listed = [None] * n if grid is not None else [row.get(PROFILE_FIELD) for row in rows]
+    profiles = _profiles(listed, base, columns["thickness_ratio"])
+    if profiles is not None:
+        columns[PROFILE_FIELD] = profiles
     return columns, grid
 
 
+def _profiles(listed: list, base: CollisionParams, thickness: np.ndarray) -> np.ndarray | None:
+    """The (n, segments) profile column: each collision's profile (None: `base`'s), the equal
+    profile of its thickness_ratio for a uniform one; None when no collision is graded."""
+    given = [base.thickness_profile if p is None else p for p in listed]
+    if all(p is None for p in given):
+        return None
+    arrays = {i: _profile(i, p) for i, p in enumerate(given) if p is not None}
+    lengths = sorted({len(a) for a in arrays.values()})
+    if len(lengths) > 1:
+        first = {size: next(i for i, a in arrays.items() if len(a) == size) for size in lengths}
+        shown = ", ".join(f"collision {i} has {size}" for size, i in first.items())
+        raise ValueError(
+            f"{PROFILE_FIELD}: every profile of a sweep has one value per beam segment of its "
+            f"mesh, the same count; {shown}"
+        )
+    out = np.repeat(thickness[:, None], lengths[0], axis=1)  # the uniform ones: equal values
+    for i, a in arrays.items():
+        out[i] = a
+    return out
+
+
+def _profile(i: int, value: Any) -> np.ndarray:
+    """Collision `i`'s profile as a 1-D float64 array (its range is checked with the rest)."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or isinstance(value, str | bytes) or np.asarray(value).dtype.kind == "b":
+        raise TypeError(
+            f"{PROFILE_FIELD} of collision {i} must be a list of real numbers (h_k/h_r of "
+            f"every beam segment, O to E), got {value!r}"[:300]
+        )
+    if arr.ndim != 1 or arr.size == 0:
+        raise ValueError(
+            f"{PROFILE_FIELD} of collision {i} must be one list of h_k/h_r (one value per beam "
+            f"segment, O to E), got shape {arr.shape}"
+        )
+    return arr
+
+
+def input_columns(columns: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The input columns as a table has them: `INPUTS`, then a profile's segments one column
+    each (``thickness_profile_0`` ...: CSV, Parquet and xarray take 1-D columns only)."""
+    out = {k: columns[k] for k in INPUTS}
+    if PROFILE_FIELD in columns:
+        profile = np.asarray(columns[PROFILE_FIELD])
+        out.update(zip(profile_names(profile.shape[1]), profile.T, strict=True))
+    return out
+
+
+def mass_ratios(columns: Mapping[str, np.ndarray], mesh: Mesh) -> np.ndarray:
+    """Each collision's `beam_mass_ratio` (beam mass over its uniform thickness_ratio beam's)."""
+    names = [*INPUTS, *([PROFILE_FIELD] if PROFILE_FIELD in columns else [])]
+    params = CollisionParams(**{k: np.asarray(columns[k], np.float64) for k in names})
+    validate(params, mesh)
+    return np.asarray(_mass_ratio_program(params, mesh), dtype=np.float64)
+
+
+@eqx.filter_jit
+def _mass_ratio_program(params: CollisionParams, mesh: Mesh):
+    return jax.vmap(lambda p: beam_mass_ratio(p, mesh))(params)
+
+
 def _check_names(mapping: Mapping[str, Any]) -> None:
-    unknown = sorted(set(mapping) - set(INPUTS))
+    allowed = (*INPUTS, PROFILE_FIELD)
+    unknown = sorted(set(mapping) - set(allowed))
     if unknown:
-        raise ValueError(f"unknown sweep inputs {unknown}; allowed: {', '.join(INPUTS)}")
+        raise ValueError(f"unknown sweep inputs {unknown}; allowed: {', '.join(allowed)}")
 
 
 def _values(name: str, values: Any) -> np.ndarray:
@@ -217,6 +305,8 @@ def sweep(
     store = None if output is None else open_store(output)
     kept = np.zeros(n, dtype=bool)
     parts: list[tuple[np.ndarray, dict[str, np.ndarray]]] = []
+    flat = input_columns(columns)  # the table's input columns (a profile: one per segment)
+    names = list(flat)
     if store is not None:
         meta = _numerics(mesh, settings, contact_smoothing, yield_smoothing)
         if store.exists() and not resume:
@@ -224,12 +314,12 @@ def sweep(
         if store.exists():
             store.check_meta(meta)
             finished = with_retry_columns(store.finished())  # a store from before retries
-            found = match_rows(columns, finished, INPUTS, output)
+            found = match_rows(flat, finished, names, output)
             kept = found >= 0
             parts.append((np.flatnonzero(kept), {k: finished[k][found[kept]] for k in OUTPUTS}))
         store.write_meta(meta)
-        old = {**{k: columns[k][kept] for k in INPUTS}, **parts[0][1]} if parts else None
-        store.start([*INPUTS, *OUTPUTS], old)
+        old = {**{k: flat[k][kept] for k in names}, **parts[0][1]} if parts else None
+        store.start([*names, *OUTPUTS], old)
     todo = np.flatnonzero(~kept)
     bar = _SweepProgress(n, done=int(kept.sum()), enabled=progress)
 
@@ -237,7 +327,7 @@ def sweep(
         rows = todo[np.asarray(rows)]
         parts.append((rows, outputs))
         if store is not None:
-            store.append({**{k: columns[k][rows] for k in INPUTS}, **outputs})
+            store.append({**{k: flat[k][rows] for k in names}, **outputs})
         bar.update(len(rows))
         if on_rows is not None:
             on_rows(rows, outputs)
@@ -245,7 +335,7 @@ def sweep(
     kwargs = dict(mesh=mesh, settings=settings, chunk_size=chunk_size, shard=shard)
     kwargs.update(contact_smoothing=contact_smoothing, yield_smoothing=yield_smoothing)
     kwargs.update(workers=1 if client is not None else workers)
-    todo_columns = {k: columns[k][todo] for k in INPUTS}
+    todo_columns = {k: v[todo] for k, v in columns.items()}
     timing: dict = {}
     try:
         if len(todo) and client is None:
@@ -262,7 +352,9 @@ def sweep(
         bar.close()
         if store is not None:
             store.close()
-    table = SweepTable({**columns, **_assemble(parts, n)}, grid, time.perf_counter() - start)
+    if PROFILE_FIELD in columns:  # a graded sweep: each beam's mass against its uniform one
+        flat["beam_mass_ratio"] = mass_ratios(columns, mesh)
+    table = SweepTable({**flat, **_assemble(parts, n)}, grid, time.perf_counter() - start)
     table.timing = timing or None
     if si is not None:
         table.columns.update(si_columns(table.columns, si[1]))
@@ -332,7 +424,8 @@ def _solve_collisions(
 
     The unit of work of every sweep (in process, or one task of a cluster sweep): `columns`
     maps every `INPUTS` name to a float64 array (one entry per collision, as `collisions`
-    makes them). They are validated first (ValueError/TypeError before anything compiles).
+    makes them), and for graded beams ``thickness_profile`` to an (n, segments) array. They
+    are validated first (ValueError/TypeError before anything compiles).
     `on_rows(rows, outputs)`, when given, is called as soon as a group of collisions has
     finished, with their positions in `columns` and their output columns (for writing rows
     as they finish, and for progress); `on_stage(text)` names the stage that starts;
@@ -342,7 +435,9 @@ def _solve_collisions(
     missing = sorted(set(INPUTS) - set(columns))
     if missing:
         raise ValueError(f"solve_collisions needs every input column; missing {missing}")
-    columns = {k: np.asarray(columns[k], dtype=np.float64) for k in INPUTS}
+    # a graded sweep's profiles: one (n, segments) column; without it, as before
+    names = [*INPUTS, *([PROFILE_FIELD] if PROFILE_FIELD in columns else [])]
+    columns = {k: np.asarray(columns[k], dtype=np.float64) for k in names}
     # CollisionParams validates arrays elementwise; `validate` adds what needs the mesh.
     params = CollisionParams(**columns)
     validate(params, mesh)
@@ -405,7 +500,6 @@ def _solve_collisions(
         part["wall_time_s"] = np.asarray(wall, np.float64)  # each one's share, no compile
         return attempts.take(rows, part, attempt)
 
-    names = [f.name for f in dataclasses.fields(CollisionParams)]
     timing = run_queue(
         {k: columns[k] for k in names},
         columns["_dt_critical"],

@@ -19,6 +19,14 @@ from .._batched.results import FAILED
 
 TEXT_COLUMNS = ("status", "message")
 INTEGER_COLUMNS = ("steps", "result", "retries", "balance_warning")  # balance_warning: 0/1
+# A graded beam's profile (`CollisionParams.thickness_profile`): one float column per segment,
+# thickness_profile_0 (at O) ... so that CSV, Parquet and xarray get 1-D columns
+PROFILE = "thickness_profile"
+
+
+def profile_names(segments: int) -> list[str]:
+    """The columns of a profile of `segments` values, O to E."""
+    return [f"{PROFILE}_{k}" for k in range(segments)]
 
 
 @dataclasses.dataclass
@@ -30,11 +38,13 @@ class SweepTable:
     grid (rows in C order: the last axis varies fastest), else None. `wall_time_s` is the
     whole sweep's. `computed`, for a sweep that wrote its rows to a file, marks the rows
     this call computed (the others were read back from the file by ``resume=True``); None
-    otherwise. `timing`, for a sweep solved in this process by the queue engine, is its
-    cost: ``workers``, ``slots``, ``segments`` (compiled calls), ``compactions``,
-    ``compile_s``, ``run_s`` (compilation excluded) and ``steps`` (the Verlet steps of every
-    attempt, reruns at a smaller step included); None otherwise (Dask tasks, shards, a sweep
-    read back whole).
+    otherwise. A sweep of graded beams also has ``thickness_profile_0`` ... (h_k/h_r of each
+    beam segment, O to E; ``table["thickness_profile"]`` gives them as one (rows, segments)
+    array) and ``beam_mass_ratio``. `timing`, for a sweep solved in this process by the queue
+    engine, is its cost: ``workers``, ``slots``, ``segments`` (compiled calls),
+    ``compactions``, ``compile_s``, ``run_s`` (compilation excluded) and ``steps`` (the
+    Verlet steps of every attempt, reruns at a smaller step included); None otherwise (Dask
+    tasks, shards, a sweep read back whole).
     """
 
     columns: dict[str, np.ndarray]
@@ -47,7 +57,22 @@ class SweepTable:
         return len(next(iter(self.columns.values())))
 
     def __getitem__(self, name: str) -> np.ndarray:
+        if name == PROFILE and name not in self.columns:
+            profile = self.profile
+            if profile is not None:
+                return profile
         return self.columns[name]
+
+    @property
+    def profile(self) -> np.ndarray | None:
+        """A graded sweep's thickness profiles, (rows, segments); None without them."""
+        names, k = [], 0
+        while f"{PROFILE}_{k}" in self.columns:
+            names.append(f"{PROFILE}_{k}")
+            k += 1
+        if not names:
+            return None
+        return np.stack([self.columns[n] for n in names], axis=1)
 
     def keys(self):
         return self.columns.keys()

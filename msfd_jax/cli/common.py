@@ -10,6 +10,7 @@ Exit codes: 0 success, 2 bad input (argparse or parameter validation), 3 failed 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 import sys
@@ -55,8 +56,12 @@ SI = {
     "block_mass": ("--block-mass", "2G, the whole rigid block [kg]"),
     "beam_width": ("--beam-width", "b_b [m]"),  # its default (the ring width) is added where used
 }
+# A graded beam (`CollisionParams.thickness_profile`): h_k/h_r per beam segment, O to E.
+PROFILE = "thickness_profile"
+PROFILE_FLAG = "--thickness-profile"
 OPTION_NAMES = {
     **{k: v[0] for k, v in PARAMS.items()},
+    PROFILE: PROFILE_FLAG,
     **{k: v[0] for k, v in SI.items()},
     "ring_segments": "--ring-segments",
     "beam_contact_segments": "--beam-contact-segments",
@@ -108,6 +113,21 @@ def values(text: str) -> list[float]:
         ) from None
 
 
+def profile_values(text: str) -> list[float]:
+    """A thickness profile: ``t0,t1,...`` (h_k/h_r of every beam segment, O to E). Only parsed
+    here: the count and the range are the model's checks (`CollisionParams`, `validate`)."""
+    try:
+        out = [float(v) for v in text.split(",")]
+    except ValueError:
+        out = []
+    if not out:
+        raise argparse.ArgumentTypeError(
+            f"expected t0,t1,... (h_k/h_r of every beam segment, O to E, comma-separated); "
+            f"got {text!r}"
+        )
+    return out
+
+
 def add_case_argument(parser: argparse.ArgumentParser) -> None:
     """The optional case file: ``msfd run CASE.toml`` (options given on the line override it)."""
     parser.add_argument(
@@ -121,13 +141,29 @@ def add_case_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def add_collision_arguments(parser: argparse.ArgumentParser) -> None:
-    """Non-dimensional groups (Eq. 1) or their SI alternative, as `from_si` takes them."""
+def add_collision_arguments(
+    parser: argparse.ArgumentParser, thickness_profile: bool = False
+) -> None:
+    """Non-dimensional groups (Eq. 1) or their SI alternative, as `from_si` takes them
+    (`thickness_profile`: also ``--thickness-profile``, a graded beam; ``msfd run``)."""
     group = parser.add_argument_group("collision (non-dimensional, Eq. 1; paper's Fig. 13)")
     defaults = m.CollisionParams()
     for field, (flag, text) in PARAMS.items():
         default = float(getattr(defaults, field))
         group.add_argument(flag, type=float, dest=field, help=f"{text} (default {default:g})")
+    if thickness_profile:
+        group.add_argument(
+            PROFILE_FLAG,
+            type=profile_values,
+            dest=PROFILE,
+            metavar="T0,T1,...",
+            help="a graded beam: h_k/h_r of every beam segment, O to E, comma-separated (one "
+            "value per segment: --beam-contact-segments + --beam-outer-segments, 25 on the "
+            "paper's mesh; each in (0, 100]). Ratios to the ring thickness h_r also with --si "
+            "(h_k = value x --ring-thickness). --thickness-ratio (with --si: --beam-thickness) "
+            "stays the uniform beam whose mass the graded one is compared with "
+            "(beam_mass_ratio) (default: none, a uniform beam)",
+        )
     group.add_argument(
         "--axial-constraint",
         action=argparse.BooleanOptionalAction,
@@ -225,13 +261,18 @@ def collision_from_args(args: argparse.Namespace) -> tuple[m.CollisionParams, m.
     """The parameters (and SI scales when SI inputs were given); raises ValueError if bad."""
     given_si = {k: getattr(args, f"si_{k}") for k in SI if getattr(args, f"si_{k}") is not None}
     given = {k: getattr(args, k) for k in PARAMS if getattr(args, k) is not None}
+    profile = getattr(args, PROFILE, None)  # h_k/h_r, in SI too (a graded beam)
     if not (args.si or given_si):
-        return m.CollisionParams(**given, axial_constraint=float(args.axial_constraint)), None
+        constraint = float(args.axial_constraint)
+        return m.CollisionParams(**given, axial_constraint=constraint, **{PROFILE: profile}), None
     if given:
         flags = ", ".join(PARAMS[k][0] for k in given)
         raise ValueError(f"{flags} cannot be combined with SI inputs; give the SI value instead")
     si = {**m.PAPER_SI, **given_si}
-    return m.from_si(**si, axial_constraint=args.axial_constraint)
+    params, scales = m.from_si(**si, axial_constraint=args.axial_constraint)
+    if profile is not None:
+        params = dataclasses.replace(params, **{PROFILE: profile})
+    return params, scales
 
 
 def mesh_from_args(args: argparse.Namespace) -> m.Mesh:

@@ -4,6 +4,8 @@
 --from-json OUT.json`` reruns the collision an earlier ``--json`` recorded (its params or SI
 inputs, mesh and settings); options given on the command line override either. With
 ``--json`` a failure is printed as one JSON object too (``"ok": false``), exit code 2 or 3.
+``--thickness-profile T0,T1,...`` (``thickness_profile = [...]`` in a case file's
+``[collision]``) runs a graded beam; its record and table then also give ``beam_mass_ratio``.
 """
 
 from __future__ import annotations
@@ -13,6 +15,8 @@ import dataclasses
 import json
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 import msfd_jax as m
 
@@ -24,6 +28,7 @@ from .common import (
     EXIT_OK,
     EXIT_SOLVE,
     PARAMS,
+    PROFILE,
     SI,
     UsageError,
     add_case_argument,
@@ -44,7 +49,7 @@ _CLI_SETTINGS = ("safety", "dt", "t_max", "history_points", "shape_times")
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_case_argument(parser)
-    add_collision_arguments(parser)
+    add_collision_arguments(parser, thickness_profile=True)
     add_numerics_arguments(parser)
     source = parser.add_argument_group("input")
     source.add_argument(
@@ -121,6 +126,14 @@ def json_defaults(path: Path) -> dict[str, Any]:
         out.update({k: params[k] for k in PARAMS if k in params})
         constraint = params.get("axial_constraint", 1.0)
         out["axial_constraint"] = _recorded_flag(path, "axial_constraint", constraint)
+    profile = record["params"].get(PROFILE)
+    if profile is not None:  # a graded beam (h_k/h_r, in SI too); the model checks the values
+        if not isinstance(profile, list):  # (argparse would parse a string default as text)
+            raise UsageError(
+                f"--from-json {path}: params.{PROFILE} must be a list of h_k/h_r (one value "
+                f"per beam segment, O to E), got {dumps(profile)[:80]}"
+            )
+        out[PROFILE] = profile
     out.update(record.get("mesh") or {})
     settings = record.get("settings") or {}
     out.update(
@@ -157,9 +170,34 @@ def _check_smoothing(args: argparse.Namespace) -> None:
 
 
 def _check_single(params: m.CollisionParams) -> None:
-    """One collision: every group a single value (a --from-json record could hold lists)."""
-    for f in dataclasses.fields(params):
-        _check_scalar(f.name, getattr(params, f.name))
+    """One collision: every group a single value, a thickness profile one list (a --from-json
+    record could hold lists, or a list of lists)."""
+    for name, value in params.scalars().items():
+        _check_scalar(name, value)
+    if params.graded and np.ndim(params.thickness_profile) != 1:
+        raise ValueError(
+            f"{PROFILE} must be one list of h_k/h_r (one value per beam segment, O to E), "
+            f"got {np.ndim(params.thickness_profile)} dimensions"
+        )
+
+
+def mass_ratio(params: m.CollisionParams, mesh: m.Mesh) -> float | None:
+    """A graded beam's mass over the uniform beam's of `thickness_ratio` (None: uniform)."""
+    return float(m.beam_mass_ratio(params, mesh)) if params.graded else None
+
+
+def with_mass_ratio(record: dict[str, Any], ratio: float | None) -> dict[str, Any]:
+    """`record` with ``beam_mass_ratio`` after its ``params`` (a graded beam only: a uniform
+    beam's record stays as it was)."""
+    if ratio is None:
+        return record
+    out: dict[str, Any] = {}
+    for key, value in record.items():
+        out[key] = value
+        if key == "params":
+            out["beam_mass_ratio"] = ratio
+    out.setdefault("beam_mass_ratio", ratio)
+    return out
 
 
 def _si_inputs(args: argparse.Namespace) -> dict[str, float] | None:
@@ -188,6 +226,7 @@ def handle(args: argparse.Namespace) -> int:
     # What `ring_on_beam` would reject, checked here so that `run` only fails in the solve.
     checked(m.validate, params, mesh, si=si)
     checked(_check_single, params)
+    ratio = checked(mass_ratio, params, mesh)
     check_plot(args.plot)
     checked(_check_smoothing, args)
     cache = None if args.no_cache else enable_compilation_cache()
@@ -225,14 +264,14 @@ def handle(args: argparse.Namespace) -> int:
                     **({"t_s": record["t_end"] * scales.time} if scales is not None else {}),
                 },
             }
-            print(dumps({**record, **failed}))
+            print(dumps(with_mass_ratio({**record, **failed}, ratio)))
         return EXIT_SOLVE
     if args.plot is not None:
         from .._plot import plot_collision
 
         plot_collision(collision, args.plot)
     if args.json:
-        print(dumps({"ok": True, **collision.to_json()}))
+        print(dumps(with_mass_ratio({"ok": True, **collision.to_json()}, ratio)))
     else:
         print(report(collision, scales))
         if args.plot is not None:
@@ -244,11 +283,15 @@ def report(collision: m.Collision, scales: m.Scales | None = None) -> str:
     """A readable summary: the partition table, checks, timing and how the run ended."""
     record = collision.to_json()
     p = record["params"]
+    thickness = f"{p['thickness_ratio']:g}"
+    if collision.params.graded:
+        thickness = f"graded (uniform reference {thickness})"
     lines = [
-        f"ring on beam: h_b/h_r = {p['thickness_ratio']:g}, E/Y = {p['modulus_ratio']:g}, "
+        f"ring on beam: h_b/h_r = {thickness}, E/Y = {p['modulus_ratio']:g}, "
         f"R/h_r = {p['slenderness']:g}, g = {p['mass_ratio']:g}, v0 = {p['velocity']:g}, "
         f"L_b/R = {p['span_ratio']:g}, b_b/b_r = {p['width_ratio']:g}, "
         + ("axially constrained" if p["axial_constraint"] else "axially free"),
+        *_graded_lines(collision),
         "",
         f"energy partition at tau = {record['t_end']:.4g} (fractions of K0 = "
         f"{record['k0']:.4g} M_pr, half model)",
@@ -276,3 +319,17 @@ def report(collision: m.Collision, scales: m.Scales | None = None) -> str:
         lines += ["", *table_lines(si)]
     lines.append(f"status: {collision.message}")
     return "\n".join(lines)
+
+
+def _graded_lines(collision: m.Collision) -> list[str]:
+    """The report's lines on a graded beam: its profile and its mass (none for a uniform beam)."""
+    if not collision.params.graded:
+        return []
+    profile = np.asarray(collision.params.thickness_profile, dtype=float)
+    ratio = mass_ratio(collision.params, collision.mesh)
+    return [
+        f"graded beam: h_k/h_r = {', '.join(f'{v:g}' for v in profile)} "
+        f"({profile.size} segments, O to E)",
+        f"beam_mass_ratio       {ratio:.6g} (beam mass over the uniform h_b/h_r = "
+        f"{float(np.asarray(collision.params.thickness_ratio)):g} beam's)",
+    ]

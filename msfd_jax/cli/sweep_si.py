@@ -71,7 +71,7 @@ def si_rows(args: argparse.Namespace, spec) -> tuple[Any, list[dict[str, Any]] |
     for point in itertools.product(*axes.values()):
         inputs = dict(zip(axes, point, strict=True))
         params, scales = m.from_si(**inputs)
-        rows.append({k: float(np.asarray(v)) for k, v in vars(params).items()})
+        rows.append({k: float(np.asarray(v)) for k, v in params.scalars().items()})
         info.append({"inputs": inputs, "scales": scales})
     return rows, info
 
