@@ -224,7 +224,7 @@ def si_sweep(grid_or_list) -> tuple[list[dict], list[dict], dict | None] | None:
             **{k: v for k, v in inputs.items() if k != "axial_constraint"},
             axial_constraint=bool(inputs.get("axial_constraint", True)),
         )
-        collisions.append({k: float(np.asarray(v)) for k, v in vars(params).items()})
+        collisions.append({k: float(np.asarray(v)) for k, v in params.scalars().items()})
         info.append({"inputs": inputs, "scales": scales})
     return collisions, info, grid
 
