@@ -16,11 +16,11 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import itertools
-import json
 
 import numpy as np
 
 import msfd_jax as m
+from msfd_jax._collision.provenance import dumps
 from msfd_jax.cli import common as cli
 from msfd_jax.cli.common import SI
 
@@ -206,7 +206,7 @@ def design_command(args: argparse.Namespace) -> int:
     }
     record["profile_points"] = problem.points
     if args.json:
-        print(json.dumps(record, allow_nan=False))
+        print(dumps(record))  # strict: a non-finite number raises, never writes NaN
     else:
         print(report(record))
     return EXIT_INFEASIBLE if result.status == "infeasible" else cli.EXIT_OK
