@@ -356,7 +356,8 @@ class GradedDesign:
       quantity's unit; >= 0 is met).
     - `start`: the sharp values of the starting (uniform) design.
     - `evaluations`: forward-run equivalents (a sharp run 1, a surrogate gradient
-      `GRADIENT_COST` each, measured in benchmarks/design.py); `iterations`; `wall_time_s`.
+      `GRADIENT_COST` = 31 each, as measured on the paper mesh by benchmarks/design.py);
+      `iterations` (each one sharp run and, but the last, one gradient); `wall_time_s`.
     - `history`: per iteration, the objective, the largest violation and the profile.
     """
 
@@ -390,7 +391,9 @@ class GradedDesign:
         }
 
 
-GRADIENT_COST = 6.0  # a surrogate gradient in forward runs (benchmarks/results/design.md)
+# a surrogate gradient in sharp forward runs: 8.5 s against 0.275 s on the paper mesh
+# (benchmarks/results/design.md, section 1; the smoothed run it differentiates: 11.8x)
+GRADIENT_COST = 31.0
 LIMITS = {
     "deflection": "max_deflection_m",
     "deceleration_10ms": "max_deceleration_10ms_m_s2",
