@@ -1,4 +1,5 @@
-"""The guard against XLA:CPU using up the process's memory mappings (msfd_jax/_runtime/mappings.py)."""
+"""The guard against XLA:CPU using up the process's memory mappings
+(msfd_jax/_runtime/mappings.py)."""
 
 import jax
 import jax.numpy as jnp

@@ -11,8 +11,6 @@ tests/test_regression.py holds the recorded runs to 1e-9 K0 and their step count
 
 from __future__ import annotations
 
-import dataclasses
-
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -124,9 +122,7 @@ def in_contact():
     beam contact nodes) 1200 substeps into contact: (flat, y) with permanent sets grown."""
     from msfd_jax._sweeps import queue as _queue
 
-    base = {
-        f.name: getattr(m.CollisionParams(), f.name) for f in dataclasses.fields(m.CollisionParams)
-    }
+    base = m.CollisionParams().scalars()
     params = m.CollisionParams(
         **{k: jnp.full(8, float(v)) for k, v in base.items()}
         | {
@@ -243,9 +239,7 @@ def test_forward_mode_through_the_pruned_contact_equals_the_dense_one(dense, loo
     a conditional per block and with the listed loop (forward mode works through both)."""
     from msfd_jax._sweeps import queue as _queue
 
-    base = {
-        f.name: getattr(m.CollisionParams(), f.name) for f in dataclasses.fields(m.CollisionParams)
-    }
+    base = m.CollisionParams().scalars()
     params = m.CollisionParams(
         **{k: jnp.full(4, float(v)) for k, v in base.items()}
         | {"thickness_ratio": jnp.linspace(0.5, 4.0, 4)}
