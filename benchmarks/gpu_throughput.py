@@ -74,8 +74,8 @@ def params_of(n: int):
     g = grid(n)
     rows = np.array(list(itertools.product(*g.values())))
     base = CollisionParams().as_arrays()
-    fields = {f.name: jnp.full(len(rows), float(getattr(base, f.name)))
-              for f in dataclasses.fields(CollisionParams)}  # fmt: skip
+    fields = {k: jnp.full(len(rows), float(v))
+              for k, v in base.scalars().items()}  # fmt: skip
     for i, k in enumerate(g):
         fields[k] = jnp.asarray(rows[:, i])
     return CollisionParams(**fields)

@@ -99,7 +99,7 @@ depths = np.linspace(0.05, 0.10, 4)
 rows = []
 for h_b in depths:
     p, _ = m.from_si(**{**RAIL, "beam_thickness": float(h_b)})
-    rows.append({k: float(v) for k, v in vars(p).items()})
+    rows.append({k: float(v) for k, v in p.scalars().items()})
 table = m.sweep(rows, mesh, settings, progress=False)
 k0_J = 2 * table["k0"] * scales.moment  # the scales do not depend on h_b
 beam_kJ = (table["beam_bending"] + table["beam_axial"]) * k0_J / 1e3
