@@ -21,22 +21,15 @@ import numpy as np
 
 import msfd_jax as m
 from msfd_jax._collision.provenance import dumps
+from msfd_jax._model.si import STANDARD_GRAVITY
 from msfd_jax.cli import common as cli
 from msfd_jax.cli.common import SI
 
+from ._cli import _flat, _pair
 from ._conditions import Conditions
 from ._graded import QUANTITIES, design, graded_problem
 
 EXIT_INFEASIBLE = 4
-STANDARD_GRAVITY = 9.80665
-
-
-def _pair(text: str) -> tuple[float, float]:
-    try:
-        low, high = (float(v) for v in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected LOW,HIGH, got {text!r}") from None
-    return low, high
 
 
 def add_design_arguments(parser: argparse.ArgumentParser) -> None:
@@ -94,10 +87,6 @@ def add_design_arguments(parser: argparse.ArgumentParser) -> None:
     )
     cli.add_quiet_argument(group)
     parser.add_argument("--json", action="store_true", help="print one JSON object, nothing else")
-
-
-def _flat(lists):
-    return None if lists is None else [v for part in lists for v in part]
 
 
 def _conditions(args, si_inputs: dict) -> Conditions | None:

@@ -122,12 +122,11 @@ class GradedProblem(eqx.Module):
         return lengths @ np.asarray(self.basis) / reference
 
 
-def _basis(mesh: m.Mesh, span: float, points: int) -> tuple[np.ndarray, np.ndarray]:
-    """(interpolation matrix (segments, K), segment lengths): hat functions on K knots evenly
-    spaced over [0, span], evaluated at the segment midpoints; K = segments gives identity."""
-    inner = np.linspace(0.0, mesh.contact_region, mesh.beam_contact_segments + 1)
-    outer = np.linspace(mesh.contact_region, span, mesh.beam_outer_segments + 1)
-    xs = np.concatenate([inner, outer[1:]])
+def _basis(xs: np.ndarray, points: int) -> tuple[np.ndarray, np.ndarray]:
+    """(interpolation matrix (segments, K), segment lengths) of a beam with nodes at `xs`
+    (O -> E): hat functions on K knots evenly spaced over [0, span], evaluated at the segment
+    midpoints; K = segments gives identity."""
+    span = float(xs[-1])
     lengths, mid = np.diff(xs), 0.5 * (xs[1:] + xs[:-1])
     n = len(lengths)
     if points == n:
@@ -164,11 +163,12 @@ def graded_problem(
             "give the reference uniform beam (thickness_ratio) without a thickness_profile: "
             "the design starts from it and compares with it"
         )
-    basis, lengths = _basis(mesh, float(params.span_ratio), points)
     corners = [dataclasses.replace(params, thickness_ratio=float(t)) for t in bounds]
     if conditions is not None:
         corners = [conditions.apply(p, i) for p in corners for i in range(len(conditions))]
     scenes = [m.ring_on_beam(p, mesh) for p in corners]
+    beam = scenes[0].chains[scenes[0].chain_index("beam")]  # the nodes the model builds
+    basis, lengths = _basis(np.asarray(beam.reference[:, 0], float), points)
     base = settings or m.Settings()
     cap = base.t_max or max(float(time_cap(s)) for s in scenes)
     chosen = dataclasses.replace(base, t_max=cap, history_points=history_points, shape_times=())
