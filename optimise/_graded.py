@@ -482,8 +482,8 @@ def design(
     stale = 0
     evaluations = 0.0
     worst = problem.conditions is not None
-    # every step's state stored by default: the gradient then recomputes nothing (5.2 s
-    # against 8.4 s with diffrax's default on the paper mesh, 8192 steps of a few kB each)
+    # every step's state stored by default: the gradient then recomputes no part of the
+    # forward run (diffrax's default recomputes; 8192 steps of a few kB each fit easily)
     stored = int(problem.settings.max_steps) if checkpoints is None else checkpoints
     for it in range(steps + 1):
         controls = jnp.asarray(c)
