@@ -27,6 +27,7 @@ directory only you can write, as ``~/.cache/msfd-jax`` is.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import hashlib
@@ -35,6 +36,7 @@ import os
 import pickle
 import sys
 import tempfile
+import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -84,6 +86,46 @@ def use_with_compile_cache(path: str | os.PathLike) -> Path:
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
     return path
+
+
+_checks_lock = threading.Lock()
+_checks_depth = 0
+_checks_saved: str | None = None
+
+
+@contextlib.contextmanager
+def checks_as_nan():
+    """Trace diffrax's input checks inside this block as NaN, not host callbacks.
+
+    diffrax checks its inputs with equinox's runtime checks (``dt0`` has the sign of
+    ``t1 - t0``; every ``SaveAt.ts`` increases and lies in ``[t0, t1]``), and under equinox's
+    default ``EQX_ON_ERROR=raise`` each is a host callback: JAX then never writes the program to
+    its persistent compile cache, nor can `jax.export` serialize it. The solver's inputs meet
+    these checks by construction (a positive step from the validated stability limit; the
+    sample times a ``linspace`` from 0 to the cap, the shape times sorted and those past the
+    cap dropped), so tracing them as ``nan`` (what a CLI process does for every program) changes
+    no result and makes every collision program cacheable. A mode the user chose in the
+    environment (``EQX_ON_ERROR``) is respected. Nested and concurrent blocks (the sweep's
+    worker threads) share one switch, restored when the last block exits.
+    """
+    import equinox._errors
+
+    global _checks_depth, _checks_saved
+    if "EQX_ON_ERROR" in os.environ or not hasattr(equinox._errors, "EQX_ON_ERROR"):
+        yield
+        return
+    with _checks_lock:
+        if _checks_depth == 0:
+            _checks_saved = equinox._errors.EQX_ON_ERROR
+            equinox._errors.EQX_ON_ERROR = "nan"
+        _checks_depth += 1
+    try:
+        yield
+    finally:
+        with _checks_lock:
+            _checks_depth -= 1
+            if _checks_depth == 0:
+                equinox._errors.EQX_ON_ERROR = _checks_saved
 
 
 def store() -> Path | None:
