@@ -130,14 +130,26 @@ def test_run_reports_its_best_attempt_when_no_step_closes_the_balance(monkeypatc
     monkeypatch.setattr(_outputs, "BALANCE_TOLERANCE", 1e-12)
     attempts, solve = [], _outputs._solve_timed
 
-    def recorded(scene, settings, dt_critical=None):
-        out = solve(scene, settings, dt_critical)
+    def recorded(scene, settings, *args, **kwargs):
+        out = solve(scene, settings, *args, **kwargs)
         attempts.append(out[0])
         return out
 
+    programs, compile_program = [], _outputs.compile_program
+
+    def compiled(fn, *args, name):
+        programs.append((args[2], float(args[6])))  # diffrax's loop bound, the clock's bound
+        return compile_program(fn, *args, name=name)
+
     monkeypatch.setattr(_outputs, "_solve_timed", recorded)
-    c = m.run(m.CollisionParams(), SMALL_MESH, LEAN)
+    monkeypatch.setattr(_outputs, "compile_program", compiled)
+    # the step bound derived, not LEAN's fixed one: each halving needs more steps
+    c = m.run(m.CollisionParams(), SMALL_MESH, dataclasses.replace(LEAN, max_steps=None))
     assert len(attempts) == 1 + BALANCE_RETRIES
+    # the reruns (halved steps, larger step bounds) reuse the first attempt's program: one
+    # static loop bound, room enough for every attempt's own bound
+    loops, bounds = {loop for loop, _ in programs}, [bound for _, bound in programs]
+    assert len(loops) == 1 and bounds[0] < bounds[-1] <= loops.pop(), programs
     ok = [i for i, s in enumerate(attempts) if int(s.result) in (OK, int(RESULTS.time_limit))]
     best = min(ok, key=lambda i: abs(float(attempts[i].energy_balance_error)))
     assert c.retries == best and c.safety == pytest.approx(0.7 * 0.5**best)

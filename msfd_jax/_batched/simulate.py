@@ -289,18 +289,20 @@ def max_steps_for(scene: Scene, settings: Settings, dt_critical=None, cap=None) 
 
 @eqx.filter_jit
 def _simulate(
-    scene: Scene, settings: Settings, max_steps: int, adjoint, dt_critical, cap
+    scene: Scene, settings: Settings, max_steps: int, adjoint, dt_critical, cap, step_limit
 ) -> Solution:
     # The batched core with a batch of one: the diffrax clock is then the collision's own
     # physical time, so histories and shapes are saved at physical times. Every setting
-    # arrives resolved (`prepare`): the stability limit, the cap and the step bound.
+    # arrives resolved (`prepare`): the stability limit, the cap and the step bound
+    # (`step_limit`, the clock's; `max_steps`, diffrax's static loop bound, may exceed it so
+    # that a rerun at a smaller step reuses this program).
     import diffrax  # at trace time: a stored program (`_runtime.export`) runs without diffrax
 
     flat = flatten(scene)
     dt = dt_critical * settings.safety if settings.dt is None else settings.dt
     # t_max=None: this collision's derived cap, on its floor's grid (`make_clock`)
     derived = None if settings.t_max is not None else cap[None]
-    clock = make_clock(flat, dt[None], settings, max_steps, derived)
+    clock = make_clock(flat, dt[None], settings, step_limit, derived)
     y0 = batch_initial_state(flat)
     k0 = clock.k0[0]
     ts = jnp.linspace(0.0, cap, settings.history_points)
@@ -399,7 +401,15 @@ def require_float64() -> None:
         )
 
 
-def prepare(scene: Scene, settings: Settings, adjoint=None, dt_critical=None) -> tuple:
+def prepare(
+    scene: Scene,
+    settings: Settings,
+    adjoint=None,
+    dt_critical=None,
+    *,
+    loop_steps: int = 0,
+    headroom: int = 1,
+) -> tuple:
     """The arguments of the compiled `_simulate` for `simulate(scene, settings, ...)`.
 
     Every setting of a run is resolved here, once, in this order: the stability limit
@@ -410,6 +420,11 @@ def prepare(scene: Scene, settings: Settings, adjoint=None, dt_critical=None) ->
     program then derives nothing again. ``_simulate.lower(*prepare(...)).compile()``
     compiles (or loads from the persistent cache) ahead of the run, so that `run` can time
     compilation and the run apart.
+
+    The step bound is the clock's (a run stops there, `RESULTS.max_steps`); diffrax's loop
+    bound, static, is the larger of `headroom` times it and `loop_steps` (the bound alone when
+    `Settings.max_steps` is given), so that `run` compiles its first attempt with room for its
+    reruns at a halved step (`_collision.attempts.retry_headroom`) and they reuse its program.
     """
     require_float64()
     if dt_critical is None:
@@ -419,7 +434,17 @@ def prepare(scene: Scene, settings: Settings, adjoint=None, dt_critical=None) ->
     bound = max_steps_for(scene, settings, dt_critical, cap)
     # adjoint None stays None: `solver.solve` takes diffrax's RecursiveCheckpointAdjoint, the
     # same program, and a process that loads a stored program needs no diffrax for the key
-    return scene, compiled_settings(settings, cap), bound, adjoint, dt_critical, _as_float64(cap)
+    loop = bound if settings.max_steps is not None else max(bound * headroom, loop_steps)
+    steps = _as_float64(bound)
+    return (
+        scene,
+        compiled_settings(settings, cap),
+        loop,
+        adjoint,
+        dt_critical,
+        _as_float64(cap),
+        steps,
+    )
 
 
 def _as_float64(v):

@@ -96,6 +96,14 @@ def first_attempts():
         BALANCE_RETRIES = kept
 
 
+def retry_headroom() -> int:
+    """How many times its first attempt's step bound a run's reruns may need: each halves the
+    step (`RETRY_FACTOR`), at most max(`MAX_RETRIES`, `BALANCE_RETRIES`) times (`needs_retry`).
+    `run` compiles its first attempt with this much room in diffrax's loop bound, so that the
+    reruns reuse its program instead of compiling their own."""
+    return round((1.0 / RETRY_FACTOR) ** max(MAX_RETRIES, BALANCE_RETRIES))
+
+
 def smaller_step(settings: Settings) -> Settings:
     """`settings` with the step multiplied by `RETRY_FACTOR` (safety, or the fixed dt)."""
     if settings.dt is None:

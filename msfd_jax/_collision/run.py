@@ -25,7 +25,14 @@ from .._model.scene import Scene, ring_on_beam
 from .._model.si import design_quantities
 from .._runtime.export import compile_program
 from .._runtime.mappings import release_if_near_limit
-from .attempts import RETRY_NOTE, STEP_CAUSE, keep_earlier, needs_retry, smaller_step
+from .attempts import (
+    RETRY_NOTE,
+    STEP_CAUSE,
+    keep_earlier,
+    needs_retry,
+    retry_headroom,
+    smaller_step,
+)
 from .provenance import mesh_json, params_json, settings_json, versions
 
 FRACTION_KEYS = (
@@ -377,7 +384,7 @@ def run(
     if scales is not None and not isinstance(scales, Scales):
         raise TypeError(f"scales must be a msfd_jax.Scales (from from_si), got {scales!r}")
     solved = settings
-    solution, wall, compile_s = _solve_timed(scene, solved)
+    solution, wall, compile_s, loop = _solve_timed(scene, solved, headroom=retry_headroom())
     attempt, first, first_text, note = 0, None, None, ""
     best = (solution, wall, 0)
     # the decisions read the balance on the host, as the record reports it (`Collision`):
@@ -394,7 +401,8 @@ def run(
         first_text = first_text or diagnose(solution, scene)
         solved, attempt = smaller_step(solved), attempt + 1
         # the same scene: its stability limit is the first attempt's, not computed again
-        solution, run_s, more = _solve_timed(scene, solved, solution.dt_critical)
+        # the first attempt's program: its loop bound has room for the halved steps
+        solution, run_s, more, _ = _solve_timed(scene, solved, solution.dt_critical, loop)
         compile_s += more
         kept = best[0]
         if bool(
@@ -436,17 +444,21 @@ def _host_balance(solution: Solution) -> np.ndarray:
     return jax.device_get(solution).energy_balance_error
 
 
-def _solve_timed(scene: Scene, settings: Settings, dt_critical=None):
-    """(solution, run seconds, compile seconds): compiled (or loaded from the cache) first,
-    then run, so the two are timed apart; with the CLI's store on, the program is a stored
-    serialized one (no tracing)."""
+def _solve_timed(scene: Scene, settings: Settings, dt_critical=None, loop_steps=0, headroom=1):
+    """(solution, run seconds, compile seconds, diffrax's loop bound): compiled (or loaded from
+    the cache) first, then run, so the two are timed apart; with the CLI's store on, the
+    program is a stored serialized one (no tracing). The loop bound is at least `loop_steps`
+    and `headroom` times the run's step bound (`prepare`): a rerun given the first attempt's
+    bound reuses its program."""
     start = time.perf_counter()
-    args = prepare(scene, settings, dt_critical=dt_critical)
+    args = prepare(
+        scene, settings, dt_critical=dt_critical, loop_steps=loop_steps, headroom=headroom
+    )
     compiled = compile_program(_simulate, *args, name="simulate")
     compile_s = time.perf_counter() - start
     start = time.perf_counter()
     solution = jax.block_until_ready(compiled(*args))
-    return solution, time.perf_counter() - start, compile_s
+    return solution, time.perf_counter() - start, compile_s, args[2]
 
 
 def run_si(
