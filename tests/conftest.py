@@ -1,6 +1,8 @@
-"""Test set-up: float64, no silent rank promotion, and compiled scenes shared across tests."""
+"""Test set-up: float64, no silent rank promotion, and compiled programs shared across tests."""
 
 import os
+import shutil
+import tempfile
 
 import jax
 
@@ -19,6 +21,35 @@ import msfd_jax as m  # noqa: E402
 hypothesis.settings.register_profile("ci", derandomize=True)
 if os.environ.get("CI"):
     hypothesis.settings.load_profile("ci")
+
+# One persistent compile cache for the whole session, shared by pytest-xdist's workers and by
+# every interpreter a test starts (docs blocks, notebooks' kernels, the CLI in a subprocess: JAX
+# reads the environment variables below at import). A program traced again in another process,
+# or after the memory-map guard below dropped it, is then loaded instead of compiled: the
+# collision programs are cacheable since diffrax's input checks are traced as NaN, not host
+# callbacks (`_runtime.export.checks_as_nan`). The controller makes the directory and removes it
+# at the end; set MSFD_TEST_COMPILE_CACHE to keep a warm one between runs.
+TEST_CACHE_ENV = "MSFD_TEST_COMPILE_CACHE"
+CACHE_MIN_COMPILE_S = 0.5  # smaller programs compile about as fast as they load
+_made_cache: list[str] = []
+
+
+def pytest_configure(config):
+    path = os.environ.get(TEST_CACHE_ENV)
+    if path is None:  # the controller (or a run without workers): workers inherit the variable
+        path = tempfile.mkdtemp(prefix="msfd-test-compile-cache-")
+        os.environ[TEST_CACHE_ENV] = path
+        _made_cache.append(path)
+    os.environ["JAX_COMPILATION_CACHE_DIR"] = path
+    os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = str(CACHE_MIN_COMPILE_S)
+    jax.config.update("jax_compilation_cache_dir", path)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", CACHE_MIN_COMPILE_S)
+
+
+def pytest_unconfigure(config):
+    for path in _made_cache:
+        shutil.rmtree(path, ignore_errors=True)
+
 
 # One small mesh for every test that does not need the paper's: compiled once, reused.
 SMALL_MESH = m.Mesh(ring_segments=6, beam_contact_segments=8, beam_outer_segments=2)
@@ -51,8 +82,8 @@ _CACHE_OPTIONS = (
 @pytest.fixture(autouse=True)
 def _no_compilation_cache_leaks():
     """A test that runs the CLI in-process without ``--no-cache`` (the cluster and SI sweeps)
-    switches JAX's persistent compilation cache on for the whole process, as the CLI does.
-    Later tests see the library's default (off) again, so they do not write every program
+    points JAX's persistent compilation cache at its own directory for the whole process, as
+    the CLI does. Later tests see the suite's cache again, so they do not write every program
     they compile into a test's temporary directory."""
     from jax.experimental.compilation_cache import compilation_cache
 

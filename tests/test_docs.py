@@ -15,8 +15,9 @@ A block preceded (on the previous non-blank line) by ``<!-- doc-test: skip REASO
 not run (a pip install, a SLURM job, an hour-long study); the reason is shown in the doc and
 in the test report, and a marker without one fails the collection.
 
-The blocks of one doc run in order in one temporary directory (the working directory), so a
-block sees the files of the blocks above it (run the whole doc, not one block by ``-k``);
+The blocks of one doc run in order in one temporary directory (the working directory), in one
+pytest-xdist worker, so a block sees the files of the blocks above it (run the whole doc, not
+one block by ``-k``);
 ``MPLBACKEND=Agg``; ``MSFD_CACHE_DIR`` is one directory for the session (the CLI's compiled
 programs are shared by all blocks; set it in the environment to reuse a warm one). A block
 passes when it exits 0 within `TIMEOUT_S` and its output (stdout and stderr) holds:
@@ -323,7 +324,12 @@ def written_json(cwd: Path, before: dict[Path, float]) -> list[Path]:
 # The tests
 
 
-@pytest.mark.parametrize("block", RUNNABLE, ids=lambda b: b.id)
+# The blocks of one doc run in order in one process (pytest-xdist's `loadgroup`: a doc is one
+# group), since a block may read what the blocks above it wrote; the docs spread over workers.
+@pytest.mark.parametrize(
+    "block",
+    [pytest.param(b, marks=pytest.mark.xdist_group(b.doc.name), id=b.id) for b in RUNNABLE],
+)
 def test_block(block: Block, doc_dirs, cache_dir):
     if block.skip is not None:
         pytest.skip(f"the doc says: {block.skip}")
