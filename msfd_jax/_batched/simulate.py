@@ -435,7 +435,6 @@ def prepare(
     # adjoint None stays None: `solver.solve` takes diffrax's RecursiveCheckpointAdjoint, the
     # same program, and a process that loads a stored program needs no diffrax for the key
     loop = bound if settings.max_steps is not None else max(bound * headroom, loop_steps)
-    steps = _as_float64(bound)
     return (
         scene,
         compiled_settings(settings, cap),
@@ -443,7 +442,7 @@ def prepare(
         adjoint,
         dt_critical,
         _as_float64(cap),
-        steps,
+        _as_float64(bound),  # `step_limit`: the clock's bound, data
     )
 
 

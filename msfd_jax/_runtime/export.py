@@ -64,10 +64,10 @@ def use_with_compile_cache(path: str | os.PathLike) -> Path:
     cluster's worker (`_sweeps.cluster.use_compile_cache`) set up.
 
     JAX never writes an executable that contains host callbacks to the cache, and equinox's
-    runtime checks (used by diffrax on ``dt0`` and ``SaveAt.ts``) are host callbacks under
-    its default ``EQX_ON_ERROR=raise``; so unless the user chose a mode, they are switched to
-    ``nan``: a failed check then gives NaN, which the solver's non-finite guard reports. Our
-    inputs are validated before they reach diffrax, so these checks cannot fire anyway.
+    runtime checks are host callbacks under its default ``EQX_ON_ERROR=raise``. The solver's
+    own (diffrax's input checks) are traced as NaN in every process (`checks_as_nan`); here,
+    unless the user chose a mode, every other check of the process's programs is switched to
+    ``nan`` too: a failed check then gives NaN, which the solver's non-finite guard reports.
     """
     import equinox._errors
 
@@ -78,7 +78,7 @@ def use_with_compile_cache(path: str | os.PathLike) -> Path:
     # default, which `error_if` consults at trace time; it is private, hence guarded: a
     # future equinox without it only loses the cache, never breaks a run. The jax settings
     # below are public configuration.
-    if "EQX_ON_ERROR" not in os.environ and hasattr(equinox._errors, "EQX_ON_ERROR"):
+    if _checks_are_ours():
         equinox._errors.EQX_ON_ERROR = "nan"
     path = Path(path).expanduser()
     jax.config.update("jax_compilation_cache_dir", str(path))
@@ -86,6 +86,15 @@ def use_with_compile_cache(path: str | os.PathLike) -> Path:
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
     return path
+
+
+def _checks_are_ours() -> bool:
+    """Whether equinox's check mode may be set here: the user chose none (``EQX_ON_ERROR`` in
+    the environment) and this equinox has the module-level default `use_with_compile_cache`
+    explains."""
+    import equinox._errors
+
+    return "EQX_ON_ERROR" not in os.environ and hasattr(equinox._errors, "EQX_ON_ERROR")
 
 
 _checks_lock = threading.Lock()
@@ -111,7 +120,7 @@ def checks_as_nan():
     import equinox._errors
 
     global _checks_depth, _checks_saved
-    if "EQX_ON_ERROR" in os.environ or not hasattr(equinox._errors, "EQX_ON_ERROR"):
+    if not _checks_are_ours():
         yield
         return
     with _checks_lock:
