@@ -1,4 +1,5 @@
-"""The batched core's forces of the collapse contacts (`_model.collapse`), batch last.
+"""The batched core's forces of the collapse contacts (`_model.collapse`), batch last:
+ring-ring pairs, planes (the block's face, the symmetry plane) and the ring bars' crush stops.
 
 Kept apart from `engine.batch_response`'s loop (which handles the paper's contact sets) so that a
 scene without collapse contacts runs exactly the code it ran before; `batch_response` and
@@ -10,9 +11,9 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from .._model.collapse import pair_mask
-from .._model.laws import contact_energy, contact_spring
+from .._model.laws import contact_energy, contact_spring, ramp
 from .._model.safe import safe_norm
-from .flat import FacePlaneLayout, FlatScene, SelfPairLayout
+from .flat import BarStopLayout, FacePlaneLayout, FlatScene, SelfPairLayout
 
 
 def _approach(flat: FlatScene, p, x, gap):
@@ -24,18 +25,45 @@ def _approach(flat: FlatScene, p, x, gap):
         mask = pair_mask(p.n, p.separation)[:, :, None]
         # pairs outside the mask get approach -gap: never closed (and no NaN gradient)
         return jnp.where(mask, gap[None, None] - dist, -gap[None, None]), (d, dist)
-    y_face = x[p.anchor, 1][None]  # (1, B)
-    return y_face + gap[None] - x[p.a : p.a + p.n_a, 1], None
+    if isinstance(p, BarStopLayout):
+        d = x[p.a + 1 : p.a + p.n] - x[p.a : p.a + p.n - 1]  # (n - 1, 2, B), bar i -> i + 1
+        dist = safe_norm(d, axis=1)
+        return gap - dist, (d, dist)
+    face = x[p.anchor, p.axis][None]  # (1, B)
+    offset = gap if gap.ndim == 2 else gap[None]  # one per node, or one for all
+    return face + offset - x[p.a : p.a + p.n_a, p.axis], None
 
 
 def _smoothing(flat: FlatScene, delta):
     return flat.contact_smoothing[(None,) * (delta.ndim - 1)]
 
 
+def _cap(p, gap, delta):
+    """The largest permanent set of a collapse set's springs: its gap (the centre line reaches
+    the plane, the other centre line or, for a bar, its crush length), shaped like delta."""
+    if isinstance(p, SelfPairLayout):
+        return jnp.broadcast_to(gap[None, None], delta.shape)
+    return jnp.broadcast_to(gap if gap.ndim == 2 else gap[None], delta.shape)
+
+
+def _spring(flat: FlatScene, p, delta, gap, permanent_set, k, fy):
+    """Eq. 18's spring, except that its permanent set stops at `_cap`: a block can be squashed
+    to no thickness, not through itself; past it the spring is elastic. (The paper's contact
+    never gets there; a collapse drives a node through a yielding block without it.)"""
+    cs = _smoothing(flat, delta)
+    f, new_set, dc = contact_spring(delta, permanent_set, k, fy, cs)
+    cap = _cap(p, gap, delta)
+    capped = new_set > cap
+    new_set = jnp.where(capped, cap, new_set)
+    f = jnp.where(capped, k * ramp(delta - cap, cs), f)
+    dc = jnp.where(capped, fy * (cap - permanent_set), dc)
+    return f, new_set, dc
+
+
 def collapse_pair_force(flat: FlatScene, p, x, gap, k, fy, permanent_set):
     """Pair forces (>= 0) of one collapse set with the permanent set after the return map."""
     delta, _ = _approach(flat, p, x, gap)
-    f, _, _ = contact_spring(delta, permanent_set, k, fy, _smoothing(flat, delta))
+    f, _, _ = _spring(flat, p, delta, gap, permanent_set, k, fy)
     return f
 
 
@@ -52,7 +80,7 @@ def collapse_response(flat: FlatScene, p, x, gap, k, fy, permanent_set):
     """
     delta, geometry = _approach(flat, p, x, gap)
     cs = _smoothing(flat, delta)
-    f, new_set, dc = contact_spring(delta, permanent_set, k, fy, cs)
+    f, new_set, dc = _spring(flat, p, delta, gap, permanent_set, k, fy)
     axes = tuple(range(f.ndim - 1))
     elastic = jnp.sum(contact_energy(delta, new_set, k, cs), axis=axes)
     n_nodes = x.shape[0]
@@ -62,9 +90,17 @@ def collapse_response(flat: FlatScene, p, x, gap, k, fy, permanent_set):
         along = jnp.where(dist > 0, f / safe, 0.0)[:, :, None] * d  # pushes i away from j
         fa = jnp.sum(along, axis=1) - jnp.sum(along, axis=0)
         force = jnp.pad(fa, ((p.a, n_nodes - p.a - p.n), (0, 0), (0, 0)))
+    elif isinstance(p, BarStopLayout):
+        d, dist = geometry
+        safe = jnp.where(dist > 0, dist, 1.0)
+        along = jnp.where(dist > 0, f / safe, 0.0)[:, None] * d  # pushes node i + 1 from i
+        pad = ((0, 0), (0, 0))
+        force = jnp.pad(along, ((1, 0), *pad)) - jnp.pad(along, ((0, 1), *pad))
+        force = jnp.pad(force, ((p.a, n_nodes - p.a - p.n), *pad))
     else:
         assert isinstance(p, FacePlaneLayout)
-        fy_nodes = jnp.pad(f, ((p.a, n_nodes - p.a - p.n_a), (0, 0)))  # +f on each node
-        fy_nodes = fy_nodes.at[p.anchor].add(-jnp.sum(f, axis=0))  # -sum f on the block
-        force = jnp.stack([jnp.zeros_like(fy_nodes), fy_nodes], axis=1)
+        f_nodes = jnp.pad(f, ((p.a, n_nodes - p.a - p.n_a), (0, 0)))  # +f on each node
+        f_nodes = f_nodes.at[p.anchor].add(-jnp.sum(f, axis=0))  # -sum f on the anchor
+        zero = jnp.zeros_like(f_nodes)
+        force = jnp.stack([f_nodes, zero] if p.axis == 0 else [zero, f_nodes], axis=1)
     return force, new_set, f, jnp.sum(dc, axis=axes), elastic

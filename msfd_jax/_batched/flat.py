@@ -21,7 +21,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .._model.collapse import BlockFaceContact, SelfContact
+from .._model.collapse import COLLAPSE_TYPES, BarStop, BlockFaceContact, SelfContact
 from .._model.contact import NodeToNodeContact, NodeToPlaneContact
 from .._model.safe import atan2
 from .._model.scene import Scene
@@ -66,15 +66,25 @@ class SelfPairLayout(NamedTuple):
 
 
 class FacePlaneLayout(NamedTuple):
-    """Nodes [a, a + n_a) against the plane y = y[anchor], moving with node `anchor`
-    (flat index; `_model.collapse.BlockFaceContact`); the "gap" array holds the offset."""
+    """Nodes [a, a + n_a) against the plane x_axis = x[anchor, axis], moving with node
+    `anchor` (flat index; `_model.collapse.BlockFaceContact`: axis 1 the block's face, axis 0
+    the symmetry plane); the "gap" array holds the offset, (B,) or one per node (n_a, B)."""
 
     a: int
     n_a: int
     anchor: int
+    axis: int = 1
 
 
-COLLAPSE_LAYOUTS = (SelfPairLayout, FacePlaneLayout)
+class BarStopLayout(NamedTuple):
+    """The crush stops of the bars between nodes [a, a + n) (`_model.collapse.BarStop`):
+    arrays (n - 1, B), one per bar."""
+
+    a: int
+    n: int
+
+
+COLLAPSE_LAYOUTS = (SelfPairLayout, FacePlaneLayout, BarStopLayout)
 
 
 class Tracked(NamedTuple):
@@ -96,9 +106,9 @@ class FlatScene(eqx.Module):
     """
 
     chains: tuple[ChainLayout, ...] = eqx.field(static=True)
-    pairs: tuple[PairLayout | PlaneLayout | SelfPairLayout | FacePlaneLayout, ...] = eqx.field(
-        static=True
-    )
+    pairs: tuple[
+        PairLayout | PlaneLayout | SelfPairLayout | FacePlaneLayout | BarStopLayout, ...
+    ] = eqx.field(static=True)
     drive: tuple[int, int] | None = eqx.field(static=True)  # (flat node, axis)
     tracked: Tracked | None = eqx.field(static=True)  # ring on beam only: the peaks' nodes
     smooth_yield: bool = eqx.field(static=True)  # False: the sharp laws alone (Scene's flags)
@@ -150,7 +160,7 @@ def layout_of(scene: Scene):
         node, bar, joint = node + c.n_nodes, bar + c.n_nodes - 1, joint + c.n_joints
     pairs = []
     for k in scene.contacts:
-        if isinstance(k, SelfContact | BlockFaceContact):
+        if isinstance(k, COLLAPSE_TYPES):
             pairs.append(_collapse_layout(k, chains[k.chain].node))
         elif isinstance(k, NodeToNodeContact):
             a, b = _range(k.nodes_a, "nodes_a"), _range(k.nodes_b, "nodes_b")
@@ -178,12 +188,14 @@ def tracked_nodes(chains: tuple[ChainLayout, ...]) -> Tracked | None:
     return Tracked(beam.node, ring.node, ring.node + ring.n_nodes - 1)
 
 
-def _collapse_layout(k: SelfContact | BlockFaceContact, first: int):
+def _collapse_layout(k: SelfContact | BlockFaceContact | BarStop, first: int):
     """The layout of a collapse contact whose chain starts at flat node `first`."""
     a, n = _range(k.nodes, "nodes")
     if isinstance(k, SelfContact):
         return SelfPairLayout(first + a, n, k.separation)
-    return FacePlaneLayout(first + a, n, first + k.anchor)
+    if isinstance(k, BarStop):
+        return BarStopLayout(first + a, n)
+    return FacePlaneLayout(first + a, n, first + k.anchor, k.axis)
 
 
 def _range(nodes: tuple[int, ...], name: str) -> tuple[int, int]:
@@ -215,7 +227,7 @@ def _flatten_one(scene: Scene) -> FlatScene:
         v0 = v0.at[drive].set(scene.drive.velocity)
     gap, stiffness, yield_force = [], [], []
     for k in scene.contacts:
-        if isinstance(k, NodeToNodeContact | SelfContact):
+        if isinstance(k, NodeToNodeContact | SelfContact | BarStop):
             gap.append(k.gap)
         elif isinstance(k, BlockFaceContact):
             gap.append(k.offset)

@@ -19,12 +19,13 @@ from .._batched.simulate import (
     array_module,
     prepare,
 )
-from .._model.collapse import BlockFaceContact, SelfContact
+from .._model.collapse import COLLAPSE_TYPES
 from .._model.params import CollisionParams, Mesh, Scales
 from .._model.scene import Scene, ring_on_beam
 from .._model.si import design_quantities
 from .._runtime.export import compile_program
 from .._runtime.mappings import release_if_near_limit
+from . import collapse as _collapse
 from .attempts import (
     RETRY_NOTE,
     STEP_CAUSE,
@@ -77,7 +78,7 @@ def fractions(solution: Solution, scene: Scene) -> dict[str, Any]:
         out[f"{name}_axial"] = zeros if i is None else solution.axial[..., i] / k0
     out["contact"] = xp.sum(solution.contact, -1) / k0
     # the collapse contacts' share of "contact" (0 without them)
-    collapse = [isinstance(k, BlockFaceContact | SelfContact) for k in scene.contacts]
+    collapse = [isinstance(k, COLLAPSE_TYPES) for k in scene.contacts]
     out["contact_collapse"] = (
         xp.sum(solution.contact[..., np.asarray(collapse)], -1) / k0 if any(collapse) else zeros
     )
@@ -125,7 +126,7 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
             or "a deformation the mesh cannot follow (ring nodes slipping between beam nodes "
             "or leaving the contact region) or an extreme parameter"
         )
-        modelled = any(isinstance(k, BlockFaceContact | SelfContact) for k in scene.contacts)
+        modelled = any(isinstance(k, COLLAPSE_TYPES) for k in scene.contacts)
         remedy = (
             "the impact is beyond what the discrete model represents: "
             + (
@@ -144,7 +145,7 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
     detail = f" (error {err:.3g} K0)" if code == RESULTS.energy_balance_broken else ""
     fold = _folded(sol, scene) if balance else ""
     if fold and np.isfinite(err):  # the fold guard (`_batched.engine.FOLD_LIMIT`), not the balance
-        if any(isinstance(k, BlockFaceContact | SelfContact) for k in scene.contacts):
+        if any(isinstance(k, COLLAPSE_TYPES) for k in scene.contacts):
             why = "the collapse contacts did not stop the fold"
             remedy = "refine the ring (Mesh.ring_segments) or lower the velocity or the mass"
         else:
@@ -246,6 +247,7 @@ class Collision:
     retries: int = 0
     retried_after: str | None = None
     retry_note: str = ""
+    collapse_note: str = ""  # solved again with the collapse contacts: after what
 
     @functools.cached_property
     def _host(self) -> Solution:
@@ -278,12 +280,13 @@ class Collision:
     @property
     def message(self) -> str:
         text = diagnose(self._host, self.scene) + self.retry_note
-        if not self.retries:
-            return text
-        return (
-            f"retried with dt = {float(self.solution.dt):.3g} ({self.safety:.3g} x the stability "
-            f"limit, {self.retries} retries) after: {self.retried_after}; then {text}"
-        )
+        if self.retries:
+            text = (
+                f"retried with dt = {float(self.solution.dt):.3g} ({self.safety:.3g} x the "
+                f"stability limit, {self.retries} retries) after: {self.retried_after}; then "
+                f"{text}"
+            )
+        return self.collapse_note + text
 
     @property
     def si(self) -> dict[str, Any] | None:
@@ -434,9 +437,34 @@ def run(
         retried_after=first,
         retry_note=note,
     )
-    if check and int(solution.result) in FAILED:
+    if _collapse.automatic(mesh) and bool(_collapse.collapsed(solution.result)):
+        collision = _follow_collapse(collision, check)
+    if check and int(collision.solution.result) in FAILED:
         raise SimulationError(collision.message, collision)
     return collision
+
+
+def _follow_collapse(first: Collision, check: bool) -> Collision:
+    """`first` (the paper's model, failed) solved again with the collapse contacts
+    (`_collision.collapse`); `first` with the reason where they cannot be built."""
+    mesh, why = _collapse.collapse_mesh(first.mesh, first.params.slenderness)
+    if mesh is None:
+        first.retry_note += _collapse.refused_note(why)
+        return first
+    again = run(
+        first.params,
+        mesh,
+        first.settings,
+        contact_smoothing=first.contact_smoothing,
+        yield_smoothing=first.yield_smoothing,
+        check=False,
+        scales=first.scales,
+        si_inputs=first.si_inputs,
+    )
+    again.collapse_note = _collapse.rerun_note(mesh, first.mesh, first.message)
+    again.wall_time_s += first.wall_time_s
+    again.compile_time_s += first.compile_time_s
+    return again
 
 
 def _host_balance(solution: Solution) -> np.ndarray:

@@ -140,18 +140,23 @@ class Mesh(eqx.Module):
     - `beam_contact_segments`: equal segments over the possible contact region OC (paper: 20).
     - `beam_outer_segments`: equal segments over CE (paper: 25 - 20 = 5).
     - `contact_region`: length of OC in units of R (paper: 2).
-    - `collapse_contacts`: also build the contacts of a ring that collapses: ring
-      nodes against the rigid block's face and ring against ring for non-adjacent nodes
-      (`msfd_jax._model.collapse`). Off (the paper's model) by default; a scene without them
-      compiles none of their code. Part of the mesh because it is part of the discrete model
-      every run and sweep of this mesh uses (and it is static, like the node counts).
+    - `collapse_contacts`: the contacts of a collapsing structure (`msfd_jax._model.collapse`:
+      ring on the block's face, on itself and on the symmetry plane, the ring bars' crush
+      stops, the beam on its mirror image). None (the default): the paper's model, and a
+      run or sweep row that it leaves without an answer (a fold, a crushed bar, a broken
+      balance a smaller step does not close) is solved again with them, the ring refined
+      where their validity check needs it (`msfd_jax._collision.collapse`); True: always
+      built (the validity check refuses a ring mesh they cannot use); False: never (the
+      paper's model alone, its failures reported). A scene without them compiles none of
+      their code. Part of the mesh because it is part of the discrete model (and static,
+      like the node counts).
     """
 
     ring_segments: int = eqx.field(static=True, default=15)
     beam_contact_segments: int = eqx.field(static=True, default=20)
     beam_outer_segments: int = eqx.field(static=True, default=5)
     contact_region: float = eqx.field(static=True, default=2.0)
-    collapse_contacts: bool = eqx.field(static=True, default=False)
+    collapse_contacts: bool | None = eqx.field(static=True, default=None)
 
     def __check_init__(self):
         _check_count("ring_segments", self.ring_segments, 3, MAX_SEGMENTS)
@@ -159,9 +164,10 @@ class Mesh(eqx.Module):
         _check_count("beam_outer_segments", self.beam_outer_segments, 1, MAX_SEGMENTS)
         _check_value("contact_region", self.contact_region, 0.0, 1.0e3, False, True)
         _check_static_number("contact_region", self.contact_region)
-        if not isinstance(self.collapse_contacts, bool):
+        if self.collapse_contacts is not None and not isinstance(self.collapse_contacts, bool):
             raise TypeError(
-                f"collapse_contacts must be True or False, got {self.collapse_contacts!r}"
+                "collapse_contacts must be None (automatic: built where a collapse needs "
+                f"them), True or False, got {self.collapse_contacts!r}"
             )
 
     def refined(self, factor: int) -> Mesh:
@@ -316,6 +322,23 @@ def validate(params: CollisionParams, mesh: Mesh) -> None:
         ) from None
     if mesh.collapse_contacts:
         _check_collapse(params.slenderness, mesh.ring_segments)
+
+
+def collapse_ring_segments(slenderness, ring_segments: int) -> tuple[int | None, str]:
+    """The fewest ring segments, at least `ring_segments`, on which the collapse contacts can
+    hold a ring of this slenderness (R/h_r, one value), and "" ; or (None, why) where no
+    count can (`_check_collapse`'s two conditions: node spacing below twice the thickness,
+    nodes two apart farther apart than it)."""
+    n = ring_segments
+    thin = float(slenderness)
+    if 2.0 * math.sin(math.pi / (4 * n)) >= 2.0 / thin:
+        n = math.floor(math.pi / (4.0 * math.asin(1.0 / thin))) + 1
+    if 2.0 * math.sin(math.pi / (2 * n)) <= 1.0 / thin:
+        return None, (
+            f"slenderness (R/h_r) = {thin:g}: on {n} ring segments (needed by the collapse "
+            "contacts' node spacing) nodes two apart start closer than the ring's thickness"
+        )
+    return n, ""
 
 
 def _check_collapse(slenderness, ring_segments: int) -> None:

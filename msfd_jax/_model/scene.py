@@ -203,6 +203,21 @@ def beam_mass_ratio(params: CollisionParams, mesh: Mesh):
     return beam_mass(params, mesh) / beam_mass(uniform, mesh)
 
 
+def _beam_mirror(params, beam: Chain):
+    """The beam's mirror contact data (`collapse.collapse_contacts`): the half thickness
+    h/(2R) at every node (uniform: one value; graded: the tributary-length mean of the
+    node's two segments, as `contact_gap`), its block's stiffness and yield force."""
+    slender, width, n = params.slenderness, params.width_ratio, beam.n_nodes
+    if params.thickness_profile is None:
+        half = params.thickness_ratio / (2.0 * slender)
+    else:
+        (t_l, t_r), (l_l, l_r) = side_values(params.thickness_profile), _side_lengths(beam)
+        half = (t_l + l_r * (t_r - t_l) / (l_l + l_r)) / (2.0 * slender)
+    k_b = _beam_blocks(params, slender, beam, n, width)
+    fy_b = block_yield(slender, beam.tributary_length(), width)
+    return 1, beam, half, k_b, fy_b
+
+
 def _ring_beam_contact(params, mesh, ring: Chain, beam: Chain, gap) -> NodeToNodeContact:
     """All quarter-ring nodes against the beam nodes of OC (Sect. 3.2)."""
     n_b = mesh.beam_contact_segments + 1
@@ -271,7 +286,7 @@ def _ring_on_beam(
     ring = ring_chain(p, mesh, -gap_o)  # S just touches O
     contacts = (_ring_beam_contact(p, mesh, ring, beam, gap),)
     if mesh.collapse_contacts:
-        contacts = contacts + collapse_contacts(p, mesh, ring)
+        contacts = contacts + collapse_contacts(p, mesh, ring, _beam_mirror(p, beam))
     v_ring = jnp.zeros_like(ring.reference).at[:, 1].set(p.velocity) * ring.free
     return Scene(
         (ring, beam),

@@ -45,6 +45,7 @@ from .._collision.attempts import (
     solve_with_retries,
     with_retry_columns,
 )
+from .._collision.collapse import automatic, follow_collapse
 from .._collision.provenance import mesh_json
 from .._collision.run import FRACTION_KEYS, balance_warning, diagnose, fractions
 from .._model.cap import T_MAX_CEILING
@@ -400,7 +401,23 @@ def _assemble(parts, n: int) -> dict[str, np.ndarray]:
 
 def solve_collisions(columns, mesh: Mesh = Mesh(), settings=SWEEP_SETTINGS, **kw):
     """`_solve_collisions` with the rows `_collision.attempts.needs_retry` names solved again
-    at a smaller step: in the queue engine's own queue, or with `shard` round by round."""
+    at a smaller step: in the queue engine's own queue, or with `shard` round by round; and,
+    with `Mesh.collapse_contacts` None, the rows still failed then solved again with the
+    collapse contacts (`_collision.collapse.follow_collapse`)."""
+    if not automatic(mesh):
+        return _solve_retrying(columns, mesh, settings, **kw)
+    given, parts = kw.pop("on_rows", None), []
+
+    def on_rows(rows, out):
+        parts.append((np.asarray(rows), out))
+        if given is not None:
+            given(rows, out)
+
+    follow_collapse(_solve_retrying, columns, mesh, settings, on_rows=on_rows, **kw)
+    return assemble(parts, len(next(iter(columns.values()))))
+
+
+def _solve_retrying(columns, mesh: Mesh, settings, **kw):
     if kw.get("shard"):
         return solve_with_retries(_solve_collisions, columns, mesh, settings, **kw)
     return _solve_collisions(columns, mesh, settings, **kw)

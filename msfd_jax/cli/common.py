@@ -202,9 +202,12 @@ def add_numerics_arguments(parser: argparse.ArgumentParser) -> None:
     )
     group.add_argument(
         "--collapse-contacts",
-        action="store_true",
-        help="also model a collapsing ring: ring on the block's face and ring on ring "
-        "(default off, the paper's model)",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="the contacts of a collapsing structure (ring on the block, on itself and on the "
+        "symmetry plane, ring bars' crush stops, beam on its mirror image): --collapse-contacts "
+        "always, --no-collapse-contacts never (the paper's model alone); default: the paper's "
+        "model, and a collision it leaves without an answer is solved again with them",
     )
     group = parser.add_argument_group("numerics")
     group.add_argument(
@@ -281,7 +284,7 @@ def mesh_from_args(args: argparse.Namespace) -> m.Mesh:
         args.beam_contact_segments,
         args.beam_outer_segments,
         args.contact_region,
-        collapse_contacts=bool(getattr(args, "collapse_contacts", False)),
+        collapse_contacts=getattr(args, "collapse_contacts", None),
     )
 
 
