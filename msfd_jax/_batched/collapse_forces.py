@@ -11,7 +11,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from .._model.collapse import pair_mask
-from .._model.laws import contact_energy, contact_spring, ramp
+from .._model.laws import capped_contact_spring, contact_energy
 from .._model.safe import safe_norm
 from .flat import BarStopLayout, FacePlaneLayout, FlatScene, SelfPairLayout
 
@@ -47,17 +47,9 @@ def _cap(p, gap, delta):
 
 
 def _spring(flat: FlatScene, p, delta, gap, permanent_set, k, fy):
-    """Eq. 18's spring, except that its permanent set stops at `_cap`: a block can be squashed
-    to no thickness, not through itself; past it the spring is elastic. (The paper's contact
-    never gets there; a collapse drives a node through a yielding block without it.)"""
-    cs = _smoothing(flat, delta)
-    f, new_set, dc = contact_spring(delta, permanent_set, k, fy, cs)
+    """Eq. 18's spring with its permanent set stopped at `_cap` (`capped_contact_spring`)."""
     cap = _cap(p, gap, delta)
-    capped = new_set > cap
-    new_set = jnp.where(capped, cap, new_set)
-    f = jnp.where(capped, k * ramp(delta - cap, cs), f)
-    dc = jnp.where(capped, fy * (cap - permanent_set), dc)
-    return f, new_set, dc
+    return capped_contact_spring(delta, permanent_set, k, fy, _smoothing(flat, delta), cap)
 
 
 def collapse_pair_force(flat: FlatScene, p, x, gap, k, fy, permanent_set):

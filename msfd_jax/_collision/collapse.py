@@ -25,6 +25,7 @@ import numpy as np
 
 from .._batched.results import RESULTS
 from .._model.params import Mesh, collapse_ring_segments
+from .attempts import step_is_cause
 
 # failures a collapse model may turn into an answer: a step bound reached is not one
 FOLLOWED = (RESULTS.energy_balance_broken, RESULTS.non_finite, RESULTS.folded)
@@ -35,10 +36,11 @@ def automatic(mesh: Mesh) -> bool:
     return mesh.collapse_contacts is None
 
 
-def collapsed(result) -> np.ndarray:
-    """True (elementwise) where a run ended in a failure the collapse contacts may answer (the
-    step retries, `attempts`, have had their turn: what is left is not the step)."""
-    return np.isin(np.asarray(result), FOLLOWED)
+def collapsed(result, dt, dt_critical) -> np.ndarray:
+    """True (elementwise) where a run ended in a failure the collapse contacts may answer: one
+    the step retries (`attempts`) do not name the step's (a step above the stability limit
+    stays the step's fault, the contacts would not help)."""
+    return np.isin(np.asarray(result), FOLLOWED) & ~step_is_cause(result, dt, dt_critical)
 
 
 def collapse_mesh(mesh: Mesh, slenderness) -> tuple[Mesh | None, str]:
@@ -75,7 +77,7 @@ def follow_collapse(solve, columns: dict, mesh: Mesh, settings, *, on_rows, **kw
 
     def first(rows, out):
         rows = np.asarray(rows)
-        bad = collapsed(out["result"])
+        bad = collapsed(out["result"], out["dt"], out["dt_critical"])
         if (~bad).any():
             on_rows(rows[~bad], {k: np.asarray(v)[~bad] for k, v in out.items()})
         if bad.any():

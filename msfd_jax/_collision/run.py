@@ -437,7 +437,9 @@ def run(
         retried_after=first,
         retry_note=note,
     )
-    if _collapse.automatic(mesh) and bool(_collapse.collapsed(solution.result)):
+    if _collapse.automatic(mesh) and bool(
+        _collapse.collapsed(solution.result, solution.dt, solution.dt_critical)
+    ):
         collision = _follow_collapse(collision, check)
     if check and int(collision.solution.result) in FAILED:
         raise SimulationError(collision.message, collision)

@@ -78,6 +78,10 @@ class BlockFaceContact(AbstractContact):
         x = xs[self.chain]
         return x[self.anchor, self.axis] + self.offset - _take(x, self.nodes)[:, self.axis]
 
+    def set_cap(self):
+        """The largest permanent set of each spring (`laws.capped_contact_spring`)."""
+        return jnp.broadcast_to(self.offset, self.stiffness.shape)
+
     def max_partners(self):
         # a node touches one plane; the anchor carries every node's spring
         return jnp.ones(()), jnp.asarray(float(len(self.nodes)))
@@ -113,6 +117,9 @@ class BarStop(AbstractContact):
         x = _take(xs[self.chain], self.nodes)
         return self.gap - safe_norm(x[1:] - x[:-1])
 
+    def set_cap(self):
+        return jnp.broadcast_to(self.gap, self.stiffness.shape)
+
     def max_partners(self):
         # a node ends two bars; the Gershgorin bound counts both sides' two springs
         return 2.0 * jnp.ones(()), 2.0 * jnp.ones(())
@@ -141,6 +148,9 @@ class SelfContact(AbstractContact):
         x = _take(xs[self.chain], self.nodes)
         delta = self.gap - safe_norm(x[:, None, :] - x[None, :, :])
         return jnp.where(pair_mask(len(self.nodes), self.separation), delta, -self.gap)
+
+    def set_cap(self):
+        return jnp.broadcast_to(self.gap, self.stiffness.shape)
 
     def max_partners(self):
         partners = 1.0 + jnp.floor(2.0 * self.gap / self.spacing)

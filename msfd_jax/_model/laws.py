@@ -110,6 +110,19 @@ def contact_spring(approach, permanent_set, stiffness, yield_force, width=0.0):
     return force, new_set, yield_force * (new_set - permanent_set)
 
 
+def capped_contact_spring(approach, permanent_set, stiffness, yield_force, width, cap):
+    """`contact_spring` whose permanent set stops at `cap` (a collapse contact's gap: a block
+    squashed to no thickness, not through itself); past it the spring is elastic. The
+    paper's contact never gets there; a collapse drives a node through a yielding block
+    without it. **Returns:** (force, new_permanent_set, dissipated)."""
+    f, new_set, dc = contact_spring(approach, permanent_set, stiffness, yield_force, width)
+    capped = new_set > cap
+    new_set = jnp.where(capped, cap, new_set)
+    f = jnp.where(capped, stiffness * ramp(approach - cap, width), f)
+    dc = jnp.where(capped, yield_force * (cap - permanent_set), dc)
+    return f, new_set, dc
+
+
 def contact_energy(approach, permanent_set, stiffness, width=0.0):
     """Elastic energy stored in a contact spring, k * ramp_energy(delta - delta_p)."""
     return stiffness * ramp_energy(approach - permanent_set, width)

@@ -14,7 +14,8 @@ import jax.flatten_util
 import jax.numpy as jnp
 from jaxtyping import Array
 
-from .._model.laws import contact_energy, contact_spring, elastic_plastic
+from .._model.collapse import COLLAPSE_TYPES
+from .._model.laws import capped_contact_spring, contact_energy, contact_spring, elastic_plastic
 from .._model.safe import unwrap_near
 from .._model.scene import Scene
 from .._model.state import State, deformations
@@ -60,7 +61,14 @@ def respond(scene: Scene, xs, rotation_p, strain_p, permanent_set) -> Response:
         elastic = elastic + 0.5 * jnp.sum(l0 * n**2 / s.axial_modulus)
     g_contacts, new_set, contact = [], [], []
     for k, delta, ps in zip(scene.contacts, q_contacts, permanent_set, strict=True):
-        f, ps1, d_c = contact_spring(delta, ps, k.stiffness, k.yield_force, scene.contact_smoothing)
+        if isinstance(k, COLLAPSE_TYPES):  # their sets stop at the gap (a block squashed flat)
+            f, ps1, d_c = capped_contact_spring(
+                delta, ps, k.stiffness, k.yield_force, scene.contact_smoothing, k.set_cap()
+            )
+        else:
+            f, ps1, d_c = contact_spring(
+                delta, ps, k.stiffness, k.yield_force, scene.contact_smoothing
+            )
         g_contacts.append(f)
         new_set.append(ps1)
         contact.append(jnp.sum(d_c))
