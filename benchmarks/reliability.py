@@ -108,7 +108,7 @@ def summary(rows: list[dict]) -> dict:
             abs(r["energy_balance_error"]) > 1e-4 and not r["balance_warning"] for r in ok
         ),
         "flagged": sum(r["balance_warning"] for r in rows),
-        "retried": {str(k): sum(r.get("retries", 0) == k for r in rows) for k in (0, 1, 2)},
+        "retried": {str(k): sum(r.get("retries", 0) == k for r in rows) for k in (0, 1, 2, 3)},
         "wall_per_row_s": {"mean": float(wall.mean()), "max": float(wall.max())},
         "t_end_max": float(max(r["t_end"] for r in rows)),
     }
@@ -126,13 +126,13 @@ def markdown(record: dict) -> str:
         "Log-uniform h_b/h_r 0.2-8, g 0.5-200, v0 0.05-3, E/Y 100-2000, R/h_r 5-40; free or "
         "held with equal odds. Balance errors |(K + U + D - K0)/K0| are over the runs that "
         "report success (settled or time limit); *flagged* rows carry `balance_warning`. "
-        "retries 0/1/2: rows reported from the first run, one or two halvings of the step; "
-        "s/row: each row's share of the batch it was reported from; sweep wall s: the seed's "
+        "retries 0/1/2/3: rows reported from the first run, one, two or three halvings of the "
+        "step; s/row: each row's share of the batch it was reported from; sweep wall s: the seed's "
         "whole sweep, compile and every retry included; skipped: designs the mesh's validity "
         "check refuses (collapse contacts need R/h_r below about 19 on 15 ring segments).",
         "",
         "| seed | rows | " + " | ".join(statuses) + " | success > 1e-4 K0 | > 1e-3 K0 | "
-        "unflagged > 1e-4 | median | 99 % | max | retries 0/1/2 | skipped | s/row mean | "
+        "unflagged > 1e-4 | median | 99 % | max | retries 0/1/2/3 | skipped | s/row mean | "
         "s/row max | sweep wall s |",
         "|---" * (len(statuses) + 14) + "|",
     ]
@@ -147,12 +147,12 @@ def markdown(record: dict) -> str:
         cells += [f"{s['wall_s']:.1f}" if "wall_s" in s else "-"]
         lines.append("| " + " | ".join(str(c) for c in cells) + " |")
     lines += ["", "## By slenderness R/h_r", ""]
-    lines.append("| R/h_r | rows | success | retries 0/1/2 | success > 1e-4 K0 after |")
+    lines.append("| R/h_r | rows | success | retries 0/1/2/3 | success > 1e-4 K0 after |")
     lines.append("|---" * 5 + "|")
     for lo, hi in BANDS:
         band = [r for r in record["rows"] if lo <= r["slenderness"] < hi]
         ok = [r for r in band if r["status"] in SUCCESS]
-        tries = "/".join(str(sum(r.get("retries", 0) == k for r in band)) for k in (0, 1, 2))
+        tries = "/".join(str(sum(r.get("retries", 0) == k for r in band)) for k in (0, 1, 2, 3))
         above = sum(abs(r["energy_balance_error"]) > 1e-4 for r in ok)
         lines.append(f"| {lo:g}-{hi:g} | {len(band)} | {len(ok)} | {tries} | {above} |")
     lines += ["", "## Worst rows", ""]

@@ -102,7 +102,7 @@ class Settings(eqx.Module):
       joint folds past pi no longer book spurious dissipation, what a successful run leaves
       open above 1e-4 K0 is the sharp contact at the default step in slow, light impacts, up
       to ~4e-2 K0 of a small K0, which a smaller step closes; `run` and `sweep` rerun such
-      runs at half the step, at most twice (`_collision.attempts.BALANCE_RETRIES`), and
+      runs at half the step, at most three times (`_collision.attempts.BALANCE_RETRIES`), and
       report the best attempt;
       one still open keeps its status with `balance_warning` and a message saying how far,
       while an unstable step or a collapse the model cannot follow still trips the guard).
