@@ -74,10 +74,11 @@ def _fake(errors: dict[float, list]):
 def test_a_sweep_reruns_open_balances_and_reports_the_best_attempt():
     errors = {  # row 0 closes at once; 1 at the first retry; 2 best at 0.35; 3 fails at 0.35;
         # 4 is open by just over BALANCE_RETRY_ABOVE (1e-4) and no halving closes it better:
-        # rerun twice, its first run kept, flagged by its own message
+        # rerun three times (BALANCE_RETRIES), its first run kept, flagged by its own message
         0.7: [1e-5, 3e-3, 4e-2, 2e-3, 1.5e-4],
         0.35: [None, 5e-5, 3e-4, np.nan, 1.6e-4],
         0.175: [None, None, 9e-4, None, 2e-4],
+        0.0875: [None, None, 5e-4, None, 1.7e-4],
     }
     solve, seen = _fake({k: [np.nan if v is None else v for v in e] for k, e in errors.items()})
     streamed = {}
@@ -90,7 +91,9 @@ def test_a_sweep_reruns_open_balances_and_reports_the_best_attempt():
     columns = {"row": np.arange(5)}
     settings = dataclasses.replace(m.Settings(), safety=0.7)
     out = solve_with_retries(solve, columns, None, settings, on_rows=on_rows)
-    assert seen == [(0.7, [0, 1, 2, 3, 4]), (0.35, [1, 2, 3, 4]), (0.175, [2, 4])]
+    assert seen == [
+        (0.7, [0, 1, 2, 3, 4]), (0.35, [1, 2, 3, 4]), (0.175, [2, 4]), (0.0875, [2, 4]),
+    ]  # fmt: skip
     assert list(out["retries"]) == [0, 1, 1, 0, 0]
     assert np.allclose(out["safety"], [0.7, 0.35, 0.35, 0.7, 0.7])  # the reported run's step
     assert np.allclose(out["energy_balance_error"], [1e-5, 5e-5, 3e-4, 2e-3, 1.5e-4])
