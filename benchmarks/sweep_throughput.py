@@ -16,6 +16,13 @@ and rewritten as ``sweep.md``.
     python benchmarks/sweep_throughput.py --quick         # small mesh, chunk 16
     XLA_FLAGS=--xla_force_host_platform_device_count=2 \
         python benchmarks/sweep_throughput.py --shard --chunks 2 8 32 64   # two host devices
+    python benchmarks/sweep_throughput.py --collapse      # the collapse contacts' cost
+
+``--collapse`` times the same sweep three ways, side by side in one process (interleaved,
+``--repeats`` each, the median kept): the paper's model (``Mesh(collapse_contacts=False)``),
+the default (``None``: a row the paper's model leaves failed is solved again with the collapse
+contacts) and the collapse contacts always on (``True``). Written to ``sweep.json``'s
+``collapse_cost`` and a second table of ``sweep.md``.
 """
 
 from __future__ import annotations
@@ -94,9 +101,58 @@ def measure(mesh_name: str, chunk: int, shard: bool, settings: m.Settings) -> di
     return record
 
 
-def write(records: list[dict], results: Path) -> None:
+COLLAPSE = {"off (paper's model)": False, "default (automatic)": None, "always on": True}
+
+
+def collapse_cost(mesh_name: str, chunk: int, repeats: int) -> list[dict]:
+    """The sweep's wall time with the collapse contacts off, automatic and on, interleaved."""
+    base = MESHES[mesh_name]
+    meshes = {k: dataclasses.replace(base, collapse_contacts=v) for k, v in COLLAPSE.items()}
+    settings = {k: bounded_settings(mesh) for k, mesh in meshes.items()}
+    first = _bench.grid_rows(GRID)[:chunk]
+    compile_s, walls, tables = {}, {k: [] for k in meshes}, {}
+    for k, mesh in meshes.items():  # each program compiled on one chunk first
+        tick = time.perf_counter()
+        m.sweep(first, mesh, settings[k], chunk_size=chunk, progress=False)
+        compile_s[k] = time.perf_counter() - tick
+    for _ in range(repeats):
+        for k, mesh in meshes.items():
+            table = m.sweep(GRID, mesh, settings[k], chunk_size=chunk, progress=False)
+            walls[k].append(table.wall_time_s)
+            tables[k] = table
+    off = float(np.median(walls["off (paper's model)"]))
+    records = []
+    for k, table in tables.items():
+        wall = float(np.median(walls[k]))
+        records.append(
+            dict(
+                mesh=mesh_name,
+                chunk_size=chunk,
+                collapse=k,
+                walls_s=walls[k],
+                wall_s=wall,
+                ratio_to_off=wall / off,
+                first_chunk_with_compile_s=compile_s[k],
+                failed=int(table.failed.sum()),
+                mean_steps=float(np.mean(table["steps"])),
+                largest_share_difference=float(
+                    max(
+                        np.max(np.abs(table[c] - tables["off (paper's model)"][c]))
+                        for c in ("ring_bending", "beam_bending", "contact", "kinetic")
+                    )
+                ),
+                load_average_1min=os.getloadavg()[0],
+            )
+        )
+        print(json.dumps(records[-1]), flush=True)
+    return records
+
+
+def write(records: list[dict], results: Path, collapse: list[dict] | None = None) -> None:
     path = results / "sweep.json"
-    old = json.loads(path.read_text())["runs"] if path.exists() else []
+    stored = json.loads(path.read_text()) if path.exists() else {}
+    old = stored.get("runs", [])
+    collapse = collapse or stored.get("collapse_cost", [])
     key = lambda r: (r["mesh"], r["chunk_size"], r["shard"], r["devices"])  # noqa: E731
     merged = {key(r): r for r in [*old, *records]}
     runs = sorted(merged.values(), key=key)
@@ -108,6 +164,8 @@ def write(records: list[dict], results: Path) -> None:
     )
     command = " ".join(["python benchmarks/sweep_throughput.py", *sys.argv[1:]])
     record = dict(command=command, machine=machine, grid=_grid_text(), runs=runs)
+    if collapse:
+        record["collapse_cost"] = collapse
     path.write_text(json.dumps(record, indent=1))
     lines = [
         "# Sweep throughput",
@@ -129,6 +187,28 @@ def write(records: list[dict], results: Path) -> None:
             f"{r['wall_s']:.3g} | {r['first_chunk_with_compile_s']:.3g} | "
             f"{r['mean_steps']:.0f} | {r['verlet_steps_per_s']:.3g} | {r['failed']} |"
         )
+    if collapse:
+        lines += [
+            "",
+            "## The collapse contacts' cost (`--collapse`)",
+            "",
+            "The same sweep with the collapse contacts off (the paper's model), automatic (the"
+            " default: a row the paper's model leaves failed is solved again with them) and always"
+            " on, interleaved in one process; wall: the median of the repeats; share difference:"
+            " the largest difference of a ring/beam bending, contact or kinetic share from the"
+            " paper's model, in K0.",
+            "",
+            "| mesh | chunk | collapse contacts | wall [s] (repeats) | ratio to off |"
+            " compile + first chunk [s] | mean steps | failed | share difference |",
+            "|---|---|---|---|---|---|---|---|---|",
+        ]
+        for r in collapse:
+            repeats = ", ".join(f"{w:.3g}" for w in r["walls_s"])
+            lines.append(
+                f"| {r['mesh']} | {r['chunk_size']} | {r['collapse']} | {r['wall_s']:.3g} "
+                f"({repeats}) | {r['ratio_to_off']:.3f} | {r['first_chunk_with_compile_s']:.3g} |"
+                f" {r['mean_steps']:.0f} | {r['failed']} | {r['largest_share_difference']:.2g} |"
+            )
     (results / "sweep.md").write_text("\n".join(lines) + "\n")
 
 
@@ -150,11 +230,22 @@ def main() -> None:
     parser.add_argument("--meshes", nargs="+", default=list(MESHES), choices=list(MESHES))
     parser.add_argument("--chunks", nargs="+", type=int, default=[16, 32, 64])
     parser.add_argument("--shard", action="store_true", help="split chunks across devices")
+    parser.add_argument(
+        "--collapse", action="store_true", help="the collapse contacts off / automatic / on"
+    )
+    parser.add_argument("--repeats", type=int, default=3, help="--collapse: sweeps per variant")
     _bench.add_quick(parser)
     args = parser.parse_args()
     if args.quick:
         args.meshes, args.chunks = ["small"], [16]
     results = _bench.results_dir(args.quick)
+    if args.collapse:
+        chunks = args.chunks if args.chunks != [16, 32, 64] else [32]
+        cost = [
+            r for name in args.meshes for c in chunks for r in collapse_cost(name, c, args.repeats)
+        ]
+        write([], results, cost)
+        return
     records = []
     for mesh_name in args.meshes:
         settings = bounded_settings(MESHES[mesh_name])

@@ -164,6 +164,34 @@ def test_a_collapse_is_solved_again_with_the_collapse_contacts():
     assert not table.failed.any()
 
 
+# seed 0 row 59 of the reliability benchmark (issue 31): a thin free beam under a slender ring
+# (R/h_r 31, above what the collapse contacts allow on 8 or 15 ring segments), struck hard
+THIN_FOLD = m.CollisionParams(
+    thickness_ratio=0.2423, mass_ratio=0.714, velocity=1.265, modulus_ratio=204.6,
+    slenderness=30.97, axial_constraint=0.0,
+)  # fmt: skip
+
+
+def test_a_thin_beam_folding_under_a_slender_ring_is_solved_again_on_a_refined_ring():
+    """The paper's model stops this impact where the beam folds past pi at the symmetry node O
+    (its halves would pass through each other); by default it is solved again with the
+    collapse contacts (the beam against its mirror half), the ring refined from 8 to the 25
+    segments their validity check needs at R/h_r = 31, and it settles with its balance closed."""
+    auto = m.run(THIN_FOLD, m.Mesh(8, 10, 2), m.Settings(history_points=2, shape_times=()))
+    assert auto.status == "settled", auto.message
+    assert abs(auto.energy_balance_error) < 1e-4, auto.message
+    assert auto.mesh == m.Mesh(25, 10, 2, collapse_contacts=True)
+    assert auto.message.startswith(
+        "solved again with the collapse contacts, the ring refined to 25 segments (from 8) after:"
+    )
+    assert "beam joint at node 0 folded" in auto.message
+    assert "the beam against its mirror half" in auto.message  # what the paper's model lacks
+    beam = np.asarray(auto.solution.final.x[1])
+    assert beam[0, 0] == 0.0 and np.all(beam[1:, 0] > 0.0)  # no beam node across the plane
+    assert auto.fractions["contact_collapse"] > 0.05  # the mirror contact did the stopping
+    assert auto.to_json()["mesh"]["ring_segments"] == 25
+
+
 def test_collapse_mesh_refines_a_slender_ring_and_refuses_what_no_mesh_holds():
     from msfd_jax._collision.collapse import collapse_mesh
 

@@ -465,8 +465,10 @@ def advance(flat: FlatScene, clock: Clock, s: BatchState, substeps: int, rule) -
     y = eqx.tree_at(lambda q: q.elastic, y, elastic)
     err = energy_error(flat, y, clock.k0)
     non_finite = ~jnp.isfinite(err)
-    # a joint folded past pi: its bars pass through each other, which the model (no contact
-    # of the ring with itself or the block) cannot follow; stopped as a broken run
+    # a joint folded past pi: its bars pass through each other, which the paper's model (no
+    # contact of the ring with itself, the block or the symmetry plane, nor of the beam with
+    # its mirror half) cannot follow, nor a scene whose collapse contacts failed to stop it;
+    # stopped as a broken run
     folded = jnp.any(jnp.abs(y.plastic_rotation) > FOLD_LIMIT, axis=0)
     broken = non_finite | (jnp.abs(err) > rule.energy_guard) | folded
     settled = jnp.zeros_like(broken)

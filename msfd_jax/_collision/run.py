@@ -149,7 +149,11 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
             why = "the collapse contacts did not stop the fold"
             remedy = "refine the ring (Mesh.ring_segments) or lower the velocity or the mass"
         else:
-            why = "the model has no contact of the ring with itself or the block to stop it"
+            why = "the paper's model has no contact to stop it (" + (
+                "the beam against its mirror half across the symmetry plane)"
+                if "beam joint" in fold
+                else "the ring against itself, the block's face or the symmetry plane)"
+            )
             remedy = (
                 "model the collapse (Mesh(collapse_contacts=True), CLI --collapse-contacts) "
                 "or lower the velocity or the mass"
@@ -188,8 +192,9 @@ def _folded(sol: Solution, scene: Scene) -> str:
     """Which joint has folded past `FOLD_LIMIT` (pi: its bars through each other), if any.
 
     The joint angle is continuous past pi (`_model.safe.unwrap_near`), so the energy balance holds,
-    but the bars then overlap: the model has no ring-on-ring or ring-on-block contact to stop
-    it, so the engine stops the run there (`RESULTS.folded`, this message).
+    but the bars then overlap: the paper's model has no contact to stop it (the collapse
+    contacts, `_model.collapse`, do where a scene has them), so the engine stops the run there
+    (`RESULTS.folded`, this message).
     """
     for c, rotation in zip(scene.chains, sol.final.plastic_rotation, strict=True):
         rotation = np.abs(np.asarray(rotation))
