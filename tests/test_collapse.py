@@ -161,7 +161,29 @@ def test_a_collapse_is_solved_again_with_the_collapse_contacts():
     assert table["message"][0].startswith("solved again with the collapse contacts after: ")
     assert table["energy_balance_error"][0] == pytest.approx(auto.energy_balance_error, abs=1e-9)
     assert not table["message"][1].startswith("solved again")  # the showcase: never rerun
+    assert "past the block's face" not in table["message"][1]
     assert not table.failed.any()
+
+
+def test_a_ring_crushed_through_the_block_is_not_a_silent_success():
+    """A thick beam (h_b/h_r = 5, g = 10, the paper's grid) flattens the ring so far that, in
+    the paper's model, its crown S ends past the block's face: the ring went through the
+    block. The run settles with its balance closed, so nothing reruns it (the paper-range
+    numbers stay the paper's model's, tests/test_regression.py), but the message says so and
+    names the remedy; with the collapse contacts the crown stays on the ring's side."""
+    from msfd_jax._collision.run import through_face
+
+    params = m.CollisionParams(thickness_ratio=5.0, mass_ratio=10.0)
+    paper = m.run(params, AUTO, DEFAULT_STEP)
+    assert paper.mesh == AUTO and paper.status == "settled"  # not solved again
+    node, depth = through_face(paper.scene, paper.solution.final.x[0])
+    assert node == 0 and depth > 0.0
+    assert f"warning: ring node 0 ended {depth:.3g} R past the block's face" in paper.message
+    assert "Mesh(collapse_contacts=True)" in paper.message
+    on = m.run(params, ON, DEFAULT_STEP)
+    assert through_face(on.scene, on.solution.final.x[0])[1] < 0.0
+    assert "past the block's face" not in on.message
+    assert on.fractions["contact_collapse"] > 0.0
 
 
 # seed 0 row 59 of the reliability benchmark (issue 31): a thin free beam under a slender ring

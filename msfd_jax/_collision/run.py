@@ -99,9 +99,17 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
     t = float(sol.t_end)
     dt, dt_crit = float(sol.dt), float(sol.dt_critical)
     if code == RESULTS.settled:
-        return f"settled: plastic dissipation stopped; ended at tau = {t:.4g}" + _balance(sol)
+        return (
+            f"settled: plastic dissipation stopped; ended at tau = {t:.4g}"
+            + _balance(sol)
+            + _through_face(sol, scene)
+        )
     if code == RESULTS.time_limit:
-        return f"reached the time cap tau = {t:.4g} (dissipation had not stopped)" + _balance(sol)
+        return (
+            f"reached the time cap tau = {t:.4g} (dissipation had not stopped)"
+            + _balance(sol)
+            + _through_face(sol, scene)
+        )
     if code == RESULTS.max_steps:
         return (
             f"stopped at tau = {t:.4g} after the maximum number of steps ({int(sol.steps)}); "
@@ -175,6 +183,37 @@ def balance_warning(solution: Solution):
     result = np.asarray(solution.result)
     success = (result == RESULTS.settled) | (result == RESULTS.time_limit)
     return success & (np.abs(np.asarray(solution.energy_balance_error)) > BALANCE_TOLERANCE)
+
+
+def through_face(scene: Scene, ring_x) -> tuple[int, float]:
+    """(node, depth): the ring node whose centre line ended deepest past the block's face, the
+    plane y = y_G through the ring's end G, and how far (in R; <= 0: none past it). (-1, nan)
+    for a scene without a ring clamped to a block."""
+    ring = scene.chains[0] if scene.chains else None
+    if ring is None or ring.name != "ring" or ring.end != "clamped":
+        return -1, float("nan")
+    x = np.asarray(ring_x)
+    depth = x[-1, 1] - x[:-1, 1]  # the ring lies on the side y > y_G of the face
+    k = int(np.argmax(depth))
+    return k, float(depth[k])
+
+
+def _through_face(sol: Solution, scene: Scene) -> str:
+    """The message's suffix for a success of the paper's model whose ring ended partly past the
+    block's face: the ring went through the block, a contact that model does not have (the
+    collapse contacts' `BlockFaceContact` has it). Not silent: the partition is the paper's
+    model's, and the remedy is named."""
+    if any(isinstance(k, COLLAPSE_TYPES) for k in scene.contacts):
+        return ""
+    k, depth = through_face(scene, sol.final.x[0])
+    if not depth > 0.0:
+        return ""
+    return (
+        f"; warning: ring node {k} ended {depth:.3g} R past the block's face (the paper's "
+        "model has no contact of the ring with the block: the ring went through it, and the "
+        "partition is that model's); Mesh(collapse_contacts=True) (CLI --collapse-contacts) "
+        "models the contact"
+    )
 
 
 def _balance(sol: Solution) -> str:
