@@ -324,15 +324,22 @@ def validate(params: CollisionParams, mesh: Mesh) -> None:
         _check_collapse(params.slenderness, mesh.ring_segments)
 
 
+REFINE_STEP = 5  # a ring refined for the collapse contacts has a multiple of this many segments
+
+
 def collapse_ring_segments(slenderness, ring_segments: int) -> tuple[int | None, str]:
     """The fewest ring segments, at least `ring_segments`, on which the collapse contacts can
     hold a ring of this slenderness (R/h_r, one value), and "" ; or (None, why) where no
     count can (`_check_collapse`'s two conditions: node spacing below twice the thickness,
-    nodes two apart farther apart than it)."""
+    nodes two apart farther apart than it). A refined count is rounded up to a multiple of
+    `REFINE_STEP` (5), so that a sweep's collapsed rows share a few ring meshes, and so a few
+    compiled programs, instead of one per count (the second condition allows about four
+    times the fewest count, n < pi R/h_r against n > pi R/(4 h_r), so the rounding keeps it)."""
     n = ring_segments
     thin = float(slenderness)
     if 2.0 * math.sin(math.pi / (4 * n)) >= 2.0 / thin:
         n = math.floor(math.pi / (4.0 * math.asin(1.0 / thin))) + 1
+        n = REFINE_STEP * math.ceil(n / REFINE_STEP)
     if 2.0 * math.sin(math.pi / (2 * n)) <= 1.0 / thin:
         return None, (
             f"slenderness (R/h_r) = {thin:g}: on {n} ring segments (needed by the collapse "
