@@ -167,23 +167,32 @@ def write(records: list[dict], results: Path, collapse: list[dict] | None = None
     key = lambda r: (r["mesh"], r["chunk_size"], r["shard"], r["devices"])  # noqa: E731
     merged = {key(r): r for r in [*old, *records]}
     runs = sorted(merged.values(), key=key)
-    machine = dict(
+    here = dict(
         platform=platform.platform(),
         cpus=os.cpu_count(),
         jax=jax.__version__,
         backend=jax.default_backend(),
     )
-    command = " ".join(["python benchmarks/sweep_throughput.py", *sys.argv[1:]])
-    record = dict(command=command, machine=machine, grid=_grid_text(), runs=runs)
+    this = " ".join(["python benchmarks/sweep_throughput.py", *sys.argv[1:]])
+    # each table keeps the machine and command that made it (a --collapse run adds no runs)
+    if records:
+        machine, command, cap = here, this, _t_max_text()
+        collapse_meta = stored.get("collapse_meta")
+    else:
+        machine, command = stored.get("machine", here), stored.get("command", this)
+        cap = stored.get("t_max", _t_max_text())
+        collapse_meta = dict(machine=here, command=this)
+    record = dict(command=command, machine=machine, grid=_grid_text(), t_max=cap, runs=runs)
     if collapse:
         record["collapse_cost"] = collapse
+        record["collapse_meta"] = collapse_meta or dict(machine=here, command=this)
     path.write_text(json.dumps(record, indent=1))
     lines = [
         "# Sweep throughput",
         "",
-        f"Written by `benchmarks/sweep_throughput.py` on {machine['platform']}, "
+        f"Written by `{command}` on {machine['platform']}, "
         f"{machine['cpus']} CPUs, jax {machine['jax']} ({machine['backend']}).",
-        f"Sweep: {_grid_text()}; default sweep settings ({_t_max_text()}, "
+        f"Sweep: {_grid_text()}; default sweep settings ({cap}, "
         f"settle rule, safety {float(SWEEP_SETTINGS.safety):g}).",
         "Collisions/s exclude compilation (each configuration is compiled on one chunk first).",
         "",
@@ -202,6 +211,10 @@ def write(records: list[dict], results: Path, collapse: list[dict] | None = None
         lines += [
             "",
             "## The collapse contacts' cost (`--collapse`)",
+            "",
+            f"`{record['collapse_meta']['command']}` on "
+            f"{record['collapse_meta']['machine']['platform']}, "
+            f"{record['collapse_meta']['machine']['cpus']} CPUs.",
             "",
             "The same sweep with the collapse contacts off (the paper's model), automatic (the"
             " default: a row the paper's model leaves failed is solved again with them) and always"
