@@ -254,6 +254,10 @@ def test_robust_design_takes_the_worst_sample_for_limits_and_the_mean_for_the_ob
     assert found.values["deceleration_10ms"] == pytest.approx(decel.mean(), rel=1e-12)
     single = o.graded_problem(params, scales, MESH, profile_points=3)
     alone, _ = o._graded._sharp(jnp.asarray(found.controls), single)
-    # rel 1e-5, not rounding: the vmapped program rounds apart from the single one, and the
-    # sharp model amplifies rounding (1.6e-7 apart when this assertion ran at rel 1e-9)
-    assert float(alone["deflection"]) == pytest.approx(deflection[1], rel=1e-5)
+    # rel 1e-3, not rounding: the vmapped program rounds apart from the single one, and the
+    # sharp model amplifies rounding (1.6e-7 apart on the machine this was written on, 8.3e-5
+    # on another with the same package versions, at a12a106 as at later commits; the thin free
+    # beam's one-ulp spread is 1.2e-3 K0, tests/test_regression.py). The claim checked is
+    # which sample is which: the two samples' deflections differ by far more
+    assert float(alone["deflection"]) == pytest.approx(deflection[1], rel=1e-3)
+    assert abs(deflection[1] - deflection[0]) > 1e-2 * deflection[1]
