@@ -134,7 +134,7 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
             or "a deformation the mesh cannot follow (ring nodes slipping between beam nodes "
             "or leaving the contact region) or an extreme parameter"
         )
-        modelled = any(isinstance(k, COLLAPSE_TYPES) for k in scene.contacts)
+        modelled = _has_collapse_contacts(scene)
         remedy = (
             "the impact is beyond what the discrete model represents: "
             + (
@@ -153,7 +153,7 @@ def diagnose(solution: Solution, scene: Scene, index: int | None = None) -> str:
     detail = f" (error {err:.3g} K0)" if code == RESULTS.energy_balance_broken else ""
     fold = _folded(sol, scene) if balance else ""
     if fold and np.isfinite(err):  # the fold guard (`_batched.engine.FOLD_LIMIT`), not the balance
-        if any(isinstance(k, COLLAPSE_TYPES) for k in scene.contacts):
+        if _has_collapse_contacts(scene):
             why = "the collapse contacts did not stop the fold"
             remedy = "refine the ring (Mesh.ring_segments) or lower the velocity or the mass"
         else:
@@ -185,6 +185,11 @@ def balance_warning(solution: Solution):
     return success & (np.abs(np.asarray(solution.energy_balance_error)) > BALANCE_TOLERANCE)
 
 
+def _has_collapse_contacts(scene: Scene) -> bool:
+    """Whether the scene was built with the collapse contacts (`Mesh.collapse_contacts`)."""
+    return any(isinstance(k, COLLAPSE_TYPES) for k in scene.contacts)
+
+
 def through_face(scene: Scene, ring_x) -> tuple[int, float]:
     """(node, depth): the ring node whose centre line ended deepest past the block's face, the
     plane y = y_G through the ring's end G, and how far (in R; <= 0: none past it). (-1, nan)
@@ -203,7 +208,7 @@ def _through_face(sol: Solution, scene: Scene) -> str:
     block's face: the ring went through the block, a contact that model does not have (the
     collapse contacts' `BlockFaceContact` has it). Not silent: the partition is the paper's
     model's, and the remedy is named."""
-    if any(isinstance(k, COLLAPSE_TYPES) for k in scene.contacts):
+    if _has_collapse_contacts(scene):
         return ""
     k, depth = through_face(scene, sol.final.x[0])
     if not depth > 0.0:
