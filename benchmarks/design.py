@@ -111,13 +111,25 @@ def section_gradient(p, scales, mesh, rounds: int) -> tuple[list[str], dict]:
         p, scales, mesh, profile_points=None, settings=m.Settings(dt=dt), bounds=BOUNDS
     )
     n = problem.points
+    stored = int(problem.settings.max_steps)  # optimise.design's default
     c = jnp.asarray(np.full(n, float(p.thickness_ratio)))
     weights = {"deflection": jnp.asarray(1.0, jnp.float64)}
     e0 = jnp.zeros(n).at[0].set(1.0)
     programs = {
         "sharp forward run (`_sharp`)": (_sharp, c, problem),
         "smoothed forward run (the surrogate's values)": (_smoothed, c, problem),
-        f"reverse gradient, all {n} segments (`_surrogate_grad`)": (
+        # as `optimise.design` calls it: every step's state stored (checkpoints = max_steps),
+        # so the backward sweep recomputes no part of the forward run
+        f"reverse gradient, all {n} segments (`_surrogate_grad`, every step stored)": (
+            _surrogate_grad,
+            c,
+            weights,
+            problem,
+            "deceleration_10ms",
+            stored,
+        ),
+        # diffrax's default (checkpoints=None): binomial checkpoints, steps recomputed
+        f"reverse gradient, all {n} segments, diffrax's default checkpoints (recomputing)": (
             _surrogate_grad,
             c,
             weights,
@@ -135,9 +147,9 @@ def section_gradient(p, scales, mesh, rounds: int) -> tuple[list[str], dict]:
     _, times = _bench.interleaved_times(programs, rounds)
     med = {k: statistics.median(v) for k, v in times.items()}
     names = list(programs)
-    sharp, smooth, rev, jvp = (med[k] for k in names)
+    sharp, smooth, rev, recomputing, jvp = (med[k] for k in names)
     # correctness: five components against central differences and forward mode
-    values, grad = _surrogate_grad(c, weights, problem, "deceleration_10ms", None)
+    values, grad = _surrogate_grad(c, weights, problem, "deceleration_10ms", stored)
     grad = np.asarray(grad)
     idx = sorted({int(i) for i in np.linspace(0, n - 1, 5).round()})
     check = []
@@ -179,15 +191,17 @@ def section_gradient(p, scales, mesh, rounds: int) -> tuple[list[str], dict]:
             f"| {k} | {first[k]:.1f} | {first[k] - med[k]:.1f} | {med[k]:.3f} | "
             f"{med[k] / sharp:.1f} | {med[k] / smooth:.2f} | {memory[k]:.0f} |"
         )
-    met = rev <= 8 * sharp
     lines += [
         "",
-        f"Goal (reverse gradient of all {n} thicknesses <= 8x a forward run): "
-        f"**{'met' if met else 'missed'}** against the sharp forward run ({rev / sharp:.1f}x), "
-        f"{'met' if rev <= 8 * smooth else 'missed'} against the smoothed forward run it "
-        f"differentiates ({rev / smooth:.1f}x). The smoothed model runs longer than the sharp "
-        "one (its collision settles later, so fewer steps are cut by the settling rule), which "
-        "is most of the gap between the two ratios. Forward mode costs "
+        f"Goal (reverse gradient of all {n} thicknesses <= 8x a forward run), the gradient as "
+        "`optimise.design` computes it (every step stored): "
+        f"**{'met' if rev <= 8 * smooth else 'missed'}** against the smoothed forward run it "
+        f"differentiates, the same map ({rev / smooth:.1f}x); "
+        f"{'met' if rev <= 8 * sharp else 'missed'} against the sharp forward run "
+        f"({rev / sharp:.1f}x). The smoothed model runs longer than the sharp one (its "
+        "collision settles later, so fewer steps are cut by the settling rule), which is the "
+        "gap between the two ratios. diffrax's default checkpoints (binomial, recomputing "
+        f"steps in the backward sweep) cost {recomputing / smooth:.1f}x. Forward mode costs "
         f"{jvp / smooth:.1f}x a smoothed run per direction: {n} directions "
         f"{n * jvp / rev:.0f}x the reverse gradient.",
         "",
@@ -437,13 +451,19 @@ def main() -> None:
     # --- the report -----------------------------------------------------------------------
     date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     flag = "".join(f" {a}" for a in sys.argv[1:])
+    allowed = sorted(os.sched_getaffinity(0))
+    if len(allowed) < (os.cpu_count() or 1):  # pinned: say so, with the command that did it
+        pinned = f"taskset -c {','.join(map(str, allowed))} "
+        where = f"{len(allowed)} of {os.cpu_count()} cores (taskset)"
+    else:
+        pinned, where = "", f"{os.cpu_count()} cores"
     lines = [
         "# Graded-beam design: gradient cost, against uniform beams and a derivative-free "
         f"search ({'a coarse mesh' if args.quick else APOSTROPHE_MESH})",
         "",
-        f"`python benchmarks/design.py{flag}` · {date} · jax {jax.__version__}, scipy "
-        f"{scipy.__version__}, {platform.machine()}, {jax.devices()[0].platform}, "
-        f"{os.cpu_count()} cores shared with other users (load average at the end "
+        f"`{pinned}python benchmarks/design.py{flag}` · {date} · jax {jax.__version__}, "
+        f"scipy {scipy.__version__}, {platform.machine()}, {jax.devices()[0].platform}, "
+        f"{where} of a machine shared with other users (load average at the end "
         f"{os.getloadavg()[0]:.1f}: compare ratios within one table) · {mesh}, "
         f"{m.beam_segments(mesh)} beam segments.",
         "",

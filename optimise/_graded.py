@@ -356,7 +356,7 @@ class GradedDesign:
       quantity's unit; >= 0 is met).
     - `start`: the sharp values of the starting (uniform) design.
     - `evaluations`: forward-run equivalents (a sharp run 1, a surrogate gradient
-      `GRADIENT_COST` = 31 each, as measured on the paper mesh by benchmarks/design.py);
+      `GRADIENT_COST` = 20 each, as measured on the paper mesh by benchmarks/design.py);
       `iterations` (each one sharp run and, but the last, one gradient); `wall_time_s`.
     - `history`: per iteration, the objective, the largest violation and the profile.
     """
@@ -391,9 +391,10 @@ class GradedDesign:
         }
 
 
-# a surrogate gradient in sharp forward runs: 8.5 s against 0.275 s on the paper mesh
-# (benchmarks/results/design.md, section 1; the smoothed run it differentiates: 11.8x)
-GRADIENT_COST = 31.0
+# a surrogate gradient (every step stored, as `design` runs it) in sharp forward runs: 2.37 s
+# against 0.116 s on the paper mesh, one core (benchmarks/results/design.md, section 1; the
+# smoothed run it differentiates: 8.8x)
+GRADIENT_COST = 20.0
 LIMITS = {
     "deflection": "max_deflection_m",
     "deceleration_10ms": "max_deceleration_10ms_m_s2",
