@@ -204,3 +204,16 @@ def test_cli_refuses_bad_cluster_and_output_options(extra, message, capsys):
     assert main(["sweep", "--no-cache", "-q", *extra]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def test_local_workers_keep_this_process_s_xla_flags(monkeypatch):
+    """The workers' one-thread flags come after this process's XLA_FLAGS (a LocalCluster's
+    env replaces a variable it names: a user's flags, the suite's too, would be lost)."""
+    monkeypatch.setenv("XLA_FLAGS", "--xla_force_host_platform_device_count=2")
+    env = _cluster._with_own_flags(_cluster.WORKER_ENV)
+    assert env["XLA_FLAGS"] == (
+        "--xla_force_host_platform_device_count=2 " + _cluster.WORKER_ENV["XLA_FLAGS"]
+    )
+    monkeypatch.delenv("XLA_FLAGS")
+    assert _cluster._with_own_flags(_cluster.WORKER_ENV) == _cluster.WORKER_ENV
+    assert _cluster._with_own_flags({"OTHER": "1"}) == {"OTHER": "1"}

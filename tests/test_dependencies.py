@@ -42,3 +42,25 @@ def test_version_is_the_package_metadata():
     import msfd_jax
 
     assert msfd_jax.__version__ == importlib.metadata.version("msfd-jax")
+
+
+def test_the_suite_compiles_without_the_fusion_emitters_where_xla_knows_the_flag():
+    """tests/conftest.py sets the flag for this process and every process it starts; an XLA
+    that no longer knows it leaves XLA's default (the suite then compiles about 2x slower)."""
+    import os
+    import subprocess
+    import sys
+
+    from conftest import FAST_COMPILE_FLAG
+
+    if os.environ.get("MSFD_TEST_FUSION_EMITTERS") == "1":
+        pytest.skip("MSFD_TEST_FUSION_EMITTERS=1: XLA's default asked for")
+    if FAST_COMPILE_FLAG not in os.environ.get("XLA_FLAGS", ""):
+        pytest.skip(f"the installed XLA refused {FAST_COMPILE_FLAG}: the suite compiles slower")
+    child = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.environ['XLA_FLAGS'])"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert FAST_COMPILE_FLAG in child.stdout  # what a docs block or a notebook kernel sees

@@ -16,6 +16,7 @@ only when a cluster is used.
 
 from __future__ import annotations
 
+import os
 import re
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -58,7 +59,8 @@ def connect(spec: str, timeout: float = 30.0, worker_env: Mapping[str, str] | No
 
     ``local:N``: a LocalCluster of N worker processes, one thread each, with `worker_env`
     (default `WORKER_ENV`) added to their environment (they inherit this process's, so
-    ``PYTHONPATH`` and ``MSFD_CACHE_DIR`` reach them) and no dashboard.
+    ``PYTHONPATH`` and ``MSFD_CACHE_DIR`` reach them; its ``XLA_FLAGS`` come first in theirs,
+    so a flag set here reaches them too) and no dashboard.
     """
     kind, value = parse(spec)
     distributed = import_distributed()
@@ -72,11 +74,21 @@ def connect(spec: str, timeout: float = 30.0, worker_env: Mapping[str, str] | No
         # taken by the first cluster on the machine, and a second would warn)
         dashboard_address=":0",
         scheduler_kwargs={"dashboard": False},
-        env=dict(WORKER_ENV if worker_env is None else worker_env),
+        env=_with_own_flags(WORKER_ENV if worker_env is None else worker_env),
     )
     client = distributed.Client(cluster, timeout=timeout)
     client.msfd_owns_cluster = cluster  # closed by `close`
     return client
+
+
+def _with_own_flags(env: Mapping[str, str]) -> dict[str, str]:
+    """`env` with this process's XLA_FLAGS before its own (the workers' env replaces a
+    variable it names: without this, a user's flags would not reach the workers)."""
+    out = dict(env)
+    own = os.environ.get("XLA_FLAGS", "").strip()
+    if own and "XLA_FLAGS" in out:
+        out["XLA_FLAGS"] = f"{own} {out['XLA_FLAGS']}"
+    return out
 
 
 def close(client) -> None:
