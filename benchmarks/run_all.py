@@ -121,6 +121,21 @@ BENCHMARKS = (
         "tuning_success.md",
     ),
     Bench(
+        "design",
+        "graded-beam design (issue 30): the all-segment reverse gradient's cost and checks, "
+        "against the best uniform beam and COBYLA, a finer-mesh recheck, a Pareto front, the "
+        "cold start",
+        "design.md",
+        (("--pareto", "0.14", "0.16", "0.20", "--pareto-steps", "15"),),
+    ),
+    Bench(
+        "compile_time",
+        "compile time of the solver's programs with XLA:CPU's fusion emitters on (default) "
+        "and off (the test suite's setting), side by side, and two test files under each",
+        "compile_time.md",
+        (("--repeats", "2", "--suite"),),
+    ),
+    Bench(
         "gpu_throughput",
         "the same code on a GPU: agreement with the CPU, cost per collision-step against "
         "the slots, whole sweeps",
@@ -417,6 +432,52 @@ def _tuning(text: str, results: Path) -> list[tuple[str, str, str]]:
     ]
 
 
+def _design(text: str, results: Path) -> list[tuple[str, str, str]]:
+    stored = _rows(text, "reverse gradient, all 25 segments (`_surrogate_grad`, every step")
+    recomputing = _rows(text, "reverse gradient, all 25 segments, diffrax's default")
+    gain = _first(r"the graded beam's deceleration is ([\d.]+) % lower", text)
+    cold = _first(r"\| \*\*total\*\* \| \*\*([\d.]+)\*\* \|", text)
+    out = []
+    if stored:
+        out.append(
+            (
+                "reverse gradient of 25 segment thicknesses (paper SI case, every step stored)",
+                f"{stored[0][3]} s, {stored[0][5]}x the smoothed forward run it differentiates, "
+                f"{stored[0][4]}x a sharp run",
+                (f"recomputing checkpoints {recomputing[0][5]}x; " if recomputing else "")
+                + "goal 8x",
+            )
+        )
+    out.append(
+        (
+            "graded beam against the best uniform beam (10 ms deceleration, same limits)",
+            f"{gain} % lower",
+            "goal 15 %",
+        )
+    )
+    out.append(("the design example from a cold start", f"{cold} s", "goal 180 s"))
+    return out
+
+
+def _compile_time(text: str, results: Path) -> list[tuple[str, str, str]]:
+    out = []
+    for row in _rows(text, "showcase") + _rows(text, "sweep") + _rows(text, "gradient"):
+        if len(row) == 7 and row[4]:
+            compiled = f"; compile {row[5]} s, {row[6]}x" if row[6] else ""
+            out.append(
+                (
+                    f"new process's first call, {row[0]}, fusion emitters off",
+                    f"{row[2]} s, {row[4]}x XLA's default{compiled}",
+                    "the default in the same run",
+                )
+            )
+    suite = {r[0]: r[1] for r in _rows(text, "fusion emitters") if len(r) == 3}
+    if len(suite) == 2:
+        on, off = suite.values()
+        out.append(("two test files (one core), fusion emitters off", f"{off} s", f"on: {on} s"))
+    return out
+
+
 def _gpu(text: str, results: Path) -> list[tuple[str, str, str]]:
     best = _first(r"\| dense \| 65536 \| [\d.]+ \| \*\*([\d.]+)\*\*", text)
     sweep = _first(r"\*\*8192 collisions on 8192 slots: ([\d.]+) collisions/s\*\*", text)
@@ -445,6 +506,8 @@ HEADLINES: dict[str, Callable[[str, Path], list[tuple[str, str, str]]]] = {
     "memory_maps": _memory_maps,
     "smoothing_bias": _smoothing,
     "tuning_success": _tuning,
+    "design": _design,
+    "compile_time": _compile_time,
     "gpu_throughput": _gpu,
 }
 
@@ -454,6 +517,8 @@ MACHINE = (  # what a result file says of its machine
     r"on (Linux-\S+), (\d+ CPUs)",
     r"(vm \(x86_64, cpu\))",
     r"(x86_64, cpu, 2 cores shared with other users)",
+    r"(x86_64, cpu, 1 of 2 cores \(taskset\))",
+    r"(jax [\d.]+, one core \(`taskset`\))",
     r"· (core\(s\) \[[\d, ]+\])",
     r"on (\d+ cores)",
     r"· (\d+ cores)",
