@@ -322,6 +322,14 @@ def _surrogate_grad(controls, weights, problem, objective, checkpoints):
     return values, grad
 
 
+def stored_checkpoints(problem: GradedProblem, checkpoints: int | None = None) -> int:
+    """The checkpoints `design` gives `_surrogate_grad` (a static argument: another value is
+    another program). None: every step's state stored, one per step bound, so the gradient
+    recomputes no part of the forward run (diffrax's default recomputes; 8192 steps of a few
+    kB each fit easily)."""
+    return int(problem.settings.max_steps) if checkpoints is None else int(checkpoints)
+
+
 def project_budget(c, low, high, row, budget):
     """The closest point to `c` with low <= c <= high and row . c <= budget (None: no budget):
     clip, then bisection on the budget's multiplier (the projection onto a box cut by one
@@ -358,7 +366,9 @@ class GradedDesign:
     - `evaluations`: forward-run equivalents (a sharp run 1, a surrogate gradient
       `GRADIENT_COST` = 20 each, as measured on the paper mesh by benchmarks/design.py);
       `iterations` (each one sharp run and, but the last, one gradient); `wall_time_s`.
-    - `history`: per iteration, the objective, the largest violation and the profile.
+    - `history`: per iteration, the objective, the largest violation, the profile, and the
+      wall times of its sharp run and gradient (``sharp_s``, ``gradient_s``; the first
+      iteration's include compiling where the programs were not compiled before).
     """
 
     status: str
@@ -391,9 +401,10 @@ class GradedDesign:
         }
 
 
-# a surrogate gradient (every step stored, as `design` runs it) in sharp forward runs: 2.37 s
-# against 0.116 s on the paper mesh, one core (benchmarks/results/design.md, section 1; the
-# smoothed run it differentiates: 8.8x)
+# a surrogate gradient (every step stored, as `design` runs it) in sharp forward runs at the
+# uniform start on the paper mesh, one core: 20.5x and 16.9x in two runs of
+# benchmarks/design.py (section 1); along a design the sharp run settles earlier or later
+# with the profile, and `history` records both times
 GRADIENT_COST = 20.0
 LIMITS = {
     "deflection": "max_deflection_m",
@@ -483,11 +494,10 @@ def design(
     stale = 0
     evaluations = 0.0
     worst = problem.conditions is not None
-    # every step's state stored by default: the gradient then recomputes no part of the
-    # forward run (diffrax's default recomputes; 8192 steps of a few kB each fit easily)
-    stored = int(problem.settings.max_steps) if checkpoints is None else checkpoints
+    stored = stored_checkpoints(problem, checkpoints)
     for it in range(steps + 1):
         controls = jnp.asarray(c)
+        tick = time.perf_counter()
         raw, (codes, _) = _sharp(controls, problem)
         evaluations += 1.0 if problem.conditions is None else len(problem.conditions)
         codes = np.atleast_1d(np.asarray(codes))
@@ -502,7 +512,13 @@ def design(
             start_values = values
             scale = abs(values[minimise]) or 1.0
         violation = _violation(values, limits)
-        record = {"objective": values[minimise], "violation": violation, "controls": c.tolist()}
+        record = {
+            "objective": values[minimise],
+            "violation": violation,
+            "controls": c.tolist(),
+            "sharp_s": time.perf_counter() - tick,
+            "gradient_s": 0.0,
+        }
         history.append(record)
         if progress is not None:
             progress(it, record)
@@ -528,11 +544,13 @@ def design(
         for k, v in limits.items():  # PHR: d/dq of (max(0, lam + mu g)^2 - lam^2) / (2 mu)
             weights[k] = max(0.0, multipliers[k] + penalty * g[k]) / (v * (1.0 - aim))
         weights = {k: jnp.asarray(w, jnp.float64) for k, w in weights.items()}
+        tick = time.perf_counter()
         _, grad = _surrogate_grad(controls, weights, problem, minimise, stored)
         evaluations += GRADIENT_COST * (
             1 if problem.conditions is None else len(problem.conditions)
         )
         grad_u = np.asarray(grad) * width
+        record["gradient_s"] = time.perf_counter() - tick
         updates, opt_state = optimiser.update(jnp.asarray(grad_u), opt_state, u)
         u = optax.apply_updates(u, updates)
         c = project_budget(low + np.asarray(u) * width, low, high, row, max_beam_mass_ratio)

@@ -178,6 +178,11 @@ def test_a_small_design_meets_its_limits_on_the_sharp_model(small_design):
     assert result.values["beam_mass"] <= 1.0 + 1e-12
     assert np.all((result.thickness_profile >= 1.5) & (result.thickness_profile <= 4.0))
     assert result.values["deceleration_10ms"] <= result.start["deceleration_10ms"]
+    # every iteration's sharp run and (but the last) gradient timed, within the design's wall
+    history = result.history
+    assert all(r["sharp_s"] > 0 for r in history) and history[-1]["gradient_s"] == 0.0
+    assert all(r["gradient_s"] > 0 for r in history[:-1])
+    assert sum(r["sharp_s"] + r["gradient_s"] for r in history) <= result.wall_time_s
     # an independent run of the found profile (msfd_jax.run, its own cap and samples)
     graded = dataclasses.replace(params, thickness_profile=result.thickness_profile)
     run = m.run(graded, MESH, scales=scales)
