@@ -173,9 +173,10 @@ plt.show()
 # ## Pareto front: deflection limit against the lowest deceleration
 #
 # For uniform beams, the lowest deceleration among the batch within each limit; for graded
-# beams, the design solved again at a looser limit (a loop: each design is Python steps around
-# compiled programs). benchmarks/design.py draws the full front
-# (`docs/figures/design_pareto.png`).
+# beams, the design solved again at a looser limit (a loop of `o.design`, reusing the programs
+# compiled above). `o.design_front(problem, "deflection", limits, ...)` solves every limit in
+# one batched run instead (two programs of its own; docs/design.md). benchmarks/design.py
+# draws the full front (`docs/figures/design_pareto.png`).
 
 # %%
 front = {LIMIT: result}

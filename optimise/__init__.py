@@ -6,6 +6,7 @@ Imports `msfd_jax`; `msfd_jax` never imports this package (its CLI loads it lazi
 
 from ._conditions import Conditions
 from ._design import DEFAULT_BOUNDS, Box, Design, default_box, project
+from ._front import design_front
 from ._graded import (
     DEFAULT_POINTS,
     QUANTITIES,
@@ -41,6 +42,7 @@ __all__ = [
     "GradedDesign",
     "GradedProblem",
     "design",
+    "design_front",
     "graded_problem",
     "quantities",
     "Conditions",

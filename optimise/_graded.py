@@ -256,7 +256,10 @@ def quantities(controls, problem: GradedProblem, *, sharp: bool = True, adjoint=
     widths = (
         (0.0, 0.0)
         if sharp
-        else (DEFAULT_SMOOTHING["yield_smoothing"], DEFAULT_SMOOTHING["contact_smoothing"])
+        else (
+            DEFAULT_SMOOTHING["yield_smoothing"],
+            DEFAULT_SMOOTHING["contact_smoothing"],
+        )
     )
     smoothing = tuple(jnp.asarray(w, jnp.float64) for w in widths)
     profile = problem.profile(controls)
@@ -300,6 +303,11 @@ def _reduce(values: dict, problem: GradedProblem, objective: str, worst: bool):
 def _surrogate_grad(controls, weights, problem, objective, checkpoints):
     """Value and gradient of sum_q weights[q] * surrogate q (one reverse sweep), the worst
     sample's limit as a smooth maximum over the samples."""
+    return surrogate_value_and_grad(controls, weights, problem, objective, checkpoints)
+
+
+def surrogate_value_and_grad(controls, weights, problem, objective, checkpoints):
+    """`_surrogate_grad` unjitted (`design_front` vmaps it over designs)."""
     adjoint = diffrax.RecursiveCheckpointAdjoint(checkpoints)
 
     def weighted(c):
@@ -418,37 +426,8 @@ def _violation(values, limits) -> float:
     return max([0.0] + [float(values[k]) / v - 1.0 for k, v in limits.items()])
 
 
-def design(
-    problem: GradedProblem,
-    *,
-    minimise: str = "deceleration_10ms",
-    limits: Mapping[str, float] | None = None,
-    max_beam_mass_ratio: float | None = None,
-    thickness_bounds: tuple[float, float] | None = None,
-    start=None,
-    steps: int = 30,
-    learning_rate: float = 0.04,
-    penalty: float = 50.0,
-    patience: int = 8,
-    tolerance: float = 2e-3,
-    aim: float = 0.005,
-    checkpoints: int | None = None,
-    progress: Callable[[int, dict], None] | None = None,
-) -> GradedDesign:
-    """Minimise `minimise` (a `QUANTITIES` name) subject to upper `limits` on others
-    ({quantity: limit in its SI unit}, e.g. {"deflection": 0.16}), the beam mass ratio at most
-    `max_beam_mass_ratio` and every thickness in `thickness_bounds` (h/h_r; None: the
-    problem's bounds).
-
-    Starts from the uniform beam of the problem's ``thickness_ratio`` (or `start`, control
-    values), clipped into the bounds and the budget. `steps`: at most this many iterations,
-    each a sharp run (values, limits) and one reverse-mode gradient of the surrogate; stops
-    early when the best feasible objective has not improved by `tolerance` (relative) for
-    `patience` iterations. `aim`: the multipliers steer to this fraction inside each limit
-    (the limits themselves are checked exactly). `checkpoints`: diffrax's
-    RecursiveCheckpointAdjoint (None: one per step bound, nothing recomputed).
-    """
-    t0 = time.perf_counter()
+def _checked(problem, minimise, limits, max_beam_mass_ratio, thickness_bounds):
+    """`design`'s inputs refused at the boundary; (limits, low, high, mass row)."""
     limits = dict(limits or {})
     for name in [minimise, *limits]:
         if name not in QUANTITIES:
@@ -480,113 +459,205 @@ def design(
                 f"thinnest beam the bounds allow ({row @ np.full(problem.points, low):.4g} at "
                 f"h/h_r = {low:g} everywhere): lower the thickness bound or raise the budget"
             )
-    reference = float(problem.params.thickness_ratio)
-    c = np.full(problem.points, reference) if start is None else np.asarray(start, float)
-    c = project_budget(c, low, high, row, max_beam_mass_ratio)
-    width = high - low
-    optimiser = optax.adam(learning_rate)
-    u = jnp.asarray((c - low) / width)
-    opt_state = optimiser.init(u)
-    multipliers = {k: 0.0 for k in limits}
-    history: list[dict[str, Any]] = []
-    best = closest = None
-    scale = None
-    stale = 0
-    evaluations = 0.0
-    worst = problem.conditions is not None
-    stored = stored_checkpoints(problem, checkpoints)
-    for it in range(steps + 1):
-        controls = jnp.asarray(c)
-        tick = time.perf_counter()
-        raw, (codes, _) = _sharp(controls, problem)
-        evaluations += 1.0 if problem.conditions is None else len(problem.conditions)
-        codes = np.atleast_1d(np.asarray(codes))
-        failed = [int(k) for k in codes if m.RESULTS(int(k)).failed]
-        values = {k: float(v) for k, v in _reduce(raw, problem, minimise, worst).items()}
-        if failed:
-            raise m.SimulationError(
-                f"the collision at thickness profile {np.round(problem.profile(controls), 4)} "
-                f"ended with '{m.RESULTS(failed[0]).status}'; narrow thickness_bounds"
-            )
+    return limits, low, high, row
+
+
+def _refuse_failed(codes, problem: GradedProblem, controls) -> None:
+    failed = [int(k) for k in np.atleast_1d(np.asarray(codes)) if m.RESULTS(int(k)).failed]
+    if failed:
+        raise m.SimulationError(
+            f"the collision at thickness profile {np.round(problem.profile(controls), 4)} "
+            f"ended with '{m.RESULTS(failed[0]).status}'; narrow thickness_bounds"
+        )
+
+
+class _Lane:
+    """One design's state in the loop of `design` (`design_front` runs several in lockstep):
+    the iterate, Adam's state, the multipliers, the best and the closest designs so far."""
+
+    def __init__(self, problem, start, minimise, limits, budget, low, high, row, options):
+        self.problem, self.minimise, self.limits = problem, minimise, limits
+        self.budget, self.low, self.high, self.row = budget, low, high, row
+        self.width = high - low
+        self.steps, self.penalty, self.patience = (
+            options["steps"],
+            options["penalty"],
+            options["patience"],
+        )
+        self.tolerance, self.aim = options["tolerance"], options["aim"]
+        reference = float(problem.params.thickness_ratio)
+        c = np.full(problem.points, reference) if start is None else np.asarray(start, float)
+        self.c = project_budget(c, low, high, row, budget)
+        self.optimiser = optax.adam(options["learning_rate"])
+        self.u = jnp.asarray((self.c - low) / self.width)
+        self.opt_state = self.optimiser.init(self.u)
+        self.multipliers = {k: 0.0 for k in limits}
+        self.history: list[dict[str, Any]] = []
+        self.best = self.closest = None
+        self.scale = None
+        self.stale = 0
+        self.evaluations = 0.0
+        self.samples = 1 if problem.conditions is None else len(problem.conditions)
+        self.start_values: dict[str, float] = {}
+        self.done = False
+
+    def observe(self, it, raw, sharp_s, progress):
+        """Take the sharp values of the current iterate; the surrogate's weights for the next
+        gradient, or None when this design stops here."""
+        worst = self.problem.conditions is not None
+        values = {k: float(v) for k, v in _reduce(raw, self.problem, self.minimise, worst).items()}
+        self.evaluations += self.samples
         if it == 0:
-            start_values = values
-            scale = abs(values[minimise]) or 1.0
-        violation = _violation(values, limits)
+            self.start_values = values
+            self.scale = abs(values[self.minimise]) or 1.0
+        violation = _violation(values, self.limits)
         record = {
-            "objective": values[minimise],
+            "objective": values[self.minimise],
             "violation": violation,
-            "controls": c.tolist(),
-            "sharp_s": time.perf_counter() - tick,
+            "controls": self.c.tolist(),
+            "sharp_s": sharp_s,
             "gradient_s": 0.0,
         }
-        history.append(record)
+        self.history.append(record)
         if progress is not None:
             progress(it, record)
+        best = self.best
         if violation <= 0.0:
-            if best is None or values[minimise] < best[1][minimise] * (1 - tolerance):
-                stale = 0
+            if best is None or values[self.minimise] < best[1][self.minimise] * (
+                1 - self.tolerance
+            ):
+                self.stale = 0
             else:
-                stale += 1
-            if best is None or values[minimise] < best[1][minimise]:
-                best = (c.copy(), values, raw)
+                self.stale += 1
+            if best is None or values[self.minimise] < best[1][self.minimise]:
+                self.best = (self.c.copy(), values, raw)
         else:
-            stale += 1 if best is not None else 0
-        if closest is None or violation < closest[2]:
-            closest = (c.copy(), values, violation, raw)
-        if it == steps or stale >= patience:
-            break
+            self.stale += 1 if best is not None else 0
+        if self.closest is None or violation < self.closest[2]:
+            self.closest = (self.c.copy(), values, violation, raw)
+        if it == self.steps or self.stale >= self.patience:
+            self.done = True
+            return None
         # the multipliers aim a little inside each limit (`aim`), so that the iterates, which
         # approach the boundary from either side, land on the feasible one
-        g = {k: values[k] / (v * (1.0 - aim)) - 1.0 for k, v in limits.items()}
-        for k in limits:
-            multipliers[k] = max(0.0, multipliers[k] + penalty * g[k])
-        weights = {minimise: 1.0 / scale}
-        for k, v in limits.items():  # PHR: d/dq of (max(0, lam + mu g)^2 - lam^2) / (2 mu)
-            weights[k] = max(0.0, multipliers[k] + penalty * g[k]) / (v * (1.0 - aim))
-        weights = {k: jnp.asarray(w, jnp.float64) for k, w in weights.items()}
+        aim = self.aim
+        g = {k: values[k] / (v * (1.0 - aim)) - 1.0 for k, v in self.limits.items()}
+        for k in self.limits:
+            self.multipliers[k] = max(0.0, self.multipliers[k] + self.penalty * g[k])
+        weights = {self.minimise: 1.0 / self.scale}
+        for (
+            k,
+            v,
+        ) in self.limits.items():  # PHR: d/dq of (max(0, lam + mu g)^2 - lam^2) / (2 mu)
+            weights[k] = max(0.0, self.multipliers[k] + self.penalty * g[k]) / (v * (1.0 - aim))
+        return {k: jnp.asarray(w, jnp.float64) for k, w in weights.items()}
+
+    def step(self, grad, gradient_s) -> None:
+        """One projected Adam step along the surrogate's gradient (control values)."""
+        self.evaluations += GRADIENT_COST * self.samples
+        grad_u = np.asarray(grad) * self.width
+        self.history[-1]["gradient_s"] = gradient_s
+        updates, self.opt_state = self.optimiser.update(jnp.asarray(grad_u), self.opt_state, self.u)
+        u = optax.apply_updates(self.u, updates)
+        self.c = project_budget(
+            self.low + np.asarray(u) * self.width,
+            self.low,
+            self.high,
+            self.row,
+            self.budget,
+        )
+        self.u = jnp.asarray((self.c - self.low) / self.width)
+
+    def result(self, wall_time_s: float) -> GradedDesign:
+        if self.best is not None:
+            status = "converged" if self.stale >= self.patience else "feasible"
+            chosen, values, raw = self.best
+        else:
+            status = "infeasible"
+            chosen, values, _, raw = self.closest
+        constraints = {
+            k: {"value": values[k], "limit": v, "margin": v - values[k]}
+            for k, v in self.limits.items()
+        }
+        budget = self.budget
+        if budget is not None:
+            constraints["beam_mass"] = {
+                "value": values["beam_mass"],
+                "limit": budget,
+                # met by projection: the last bits of the sum are rounding
+                "margin": max(0.0, budget - values["beam_mass"])
+                if values["beam_mass"] <= budget * (1 + 1e-12)
+                else budget - values["beam_mass"],
+            }
+        samples = None
+        if self.problem.conditions is not None:
+            samples = {k: np.atleast_1d(np.asarray(v)).tolist() for k, v in raw.items()}
+        return GradedDesign(
+            status,
+            self.minimise,
+            chosen,
+            np.asarray(self.problem.profile(jnp.asarray(chosen))),
+            values,
+            constraints,
+            self.start_values,
+            self.evaluations,
+            len(self.history) - 1,
+            wall_time_s,
+            self.history,
+            samples,
+        )
+
+
+def design(
+    problem: GradedProblem,
+    *,
+    minimise: str = "deceleration_10ms",
+    limits: Mapping[str, float] | None = None,
+    max_beam_mass_ratio: float | None = None,
+    thickness_bounds: tuple[float, float] | None = None,
+    start=None,
+    steps: int = 30,
+    learning_rate: float = 0.04,
+    penalty: float = 50.0,
+    patience: int = 8,
+    tolerance: float = 2e-3,
+    aim: float = 0.005,
+    checkpoints: int | None = None,
+    progress: Callable[[int, dict], None] | None = None,
+) -> GradedDesign:
+    """Minimise `minimise` (a `QUANTITIES` name) subject to upper `limits` on others
+    ({quantity: limit in its SI unit}, e.g. {"deflection": 0.16}), the beam mass ratio at most
+    `max_beam_mass_ratio` and every thickness in `thickness_bounds` (h/h_r; None: the
+    problem's bounds).
+
+    Starts from the uniform beam of the problem's ``thickness_ratio`` (or `start`, control
+    values), clipped into the bounds and the budget. `steps`: at most this many iterations,
+    each a sharp run (values, limits) and one reverse-mode gradient of the surrogate; stops
+    early when the best feasible objective has not improved by `tolerance` (relative) for
+    `patience` iterations. `aim`: the multipliers steer to this fraction inside each limit
+    (the limits themselves are checked exactly). `checkpoints`: diffrax's
+    RecursiveCheckpointAdjoint (None: one per step bound, nothing recomputed).
+    """
+    t0 = time.perf_counter()
+    limits, low, high, row = _checked(
+        problem, minimise, limits, max_beam_mass_ratio, thickness_bounds
+    )
+    options = dict(
+        steps=steps, learning_rate=learning_rate, penalty=penalty, patience=patience,
+        tolerance=tolerance, aim=aim,
+    )  # fmt: skip
+    lane = _Lane(problem, start, minimise, limits, max_beam_mass_ratio, low, high, row, options)
+    stored = stored_checkpoints(problem, checkpoints)
+    for it in range(steps + 1):
+        controls = jnp.asarray(lane.c)
+        tick = time.perf_counter()
+        raw, (codes, _) = _sharp(controls, problem)
+        _refuse_failed(codes, problem, controls)
+        weights = lane.observe(it, raw, time.perf_counter() - tick, progress)
+        if weights is None:
+            break
         tick = time.perf_counter()
         _, grad = _surrogate_grad(controls, weights, problem, minimise, stored)
-        evaluations += GRADIENT_COST * (
-            1 if problem.conditions is None else len(problem.conditions)
-        )
-        grad_u = np.asarray(grad) * width
-        record["gradient_s"] = time.perf_counter() - tick
-        updates, opt_state = optimiser.update(jnp.asarray(grad_u), opt_state, u)
-        u = optax.apply_updates(u, updates)
-        c = project_budget(low + np.asarray(u) * width, low, high, row, max_beam_mass_ratio)
-        u = jnp.asarray((c - low) / width)
-    if best is not None:
-        status = "converged" if stale >= patience else "feasible"
-        chosen, values, raw = best
-    else:
-        status = "infeasible"
-        chosen, values, _, raw = closest
-    constraints = {
-        k: {"value": values[k], "limit": v, "margin": v - values[k]} for k, v in limits.items()
-    }
-    if max_beam_mass_ratio is not None:
-        constraints["beam_mass"] = {
-            "value": values["beam_mass"],
-            "limit": max_beam_mass_ratio,
-            # met by projection: the last bits of the sum are rounding
-            "margin": max(0.0, max_beam_mass_ratio - values["beam_mass"])
-            if values["beam_mass"] <= max_beam_mass_ratio * (1 + 1e-12)
-            else max_beam_mass_ratio - values["beam_mass"],
-        }
-    samples = None
-    if problem.conditions is not None:
-        samples = {k: np.atleast_1d(np.asarray(v)).tolist() for k, v in raw.items()}
-    return GradedDesign(
-        status,
-        minimise,
-        chosen,
-        np.asarray(problem.profile(jnp.asarray(chosen))),
-        values,
-        constraints,
-        start_values,
-        evaluations,
-        len(history) - 1,
-        time.perf_counter() - t0,
-        history,
-        samples,
-    )
+        grad = np.asarray(grad)
+        lane.step(grad, time.perf_counter() - tick)
+    return lane.result(time.perf_counter() - t0)
