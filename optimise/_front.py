@@ -11,13 +11,11 @@ stops: the batch's shape, hence its program, stays the same throughout.
 
 from __future__ import annotations
 
-import functools
 import time
 from collections.abc import Callable, Mapping, Sequence
 
 import equinox as eqx
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from ._graded import (
@@ -26,7 +24,7 @@ from ._graded import (
     GradedProblem,
     _checked,
     _Lane,
-    _refuse_failed,
+    drive,
     quantities,
     stored_checkpoints,
     surrogate_value_and_grad,
@@ -102,31 +100,10 @@ def design_front(
         checked, low, high, row = _checked(problem, minimise, lane_limits, budget, thickness_bounds)
         lanes.append(_Lane(problem, start, minimise, checked, budget, low, high, row, options))
     stored = stored_checkpoints(problem, checkpoints)
-    for it in range(steps + 1):
-        controls = jnp.asarray(np.stack([lane.c for lane in lanes]))
-        tick = time.perf_counter()
-        raw, (codes, _) = _sharp_lanes(controls, problem)
-        codes = np.asarray(codes)
-        sharp_s = time.perf_counter() - tick
-        weights = []
-        for i, lane in enumerate(lanes):
-            if lane.done:
-                weights.append(None)
-                continue
-            _refuse_failed(codes[i], problem, controls[i])
-            told = None if progress is None else functools.partial(progress, i)
-            weights.append(lane.observe(it, {k: v[i] for k, v in raw.items()}, sharp_s, told))
-        if all(lane.done for lane in lanes):
-            break
-        keys = next(w for w in weights if w is not None)
-        zero = jnp.zeros((), jnp.float64)  # a stopped design: its gradient is not used
-        stacked = {k: jnp.stack([zero if w is None else w[k] for w in weights]) for k in keys}
-        tick = time.perf_counter()
-        _, grads = _surrogate_grad_lanes(controls, stacked, problem, minimise, stored)
-        grads = np.asarray(grads)
-        gradient_s = time.perf_counter() - tick
-        for i, lane in enumerate(lanes):
-            if weights[i] is not None:
-                lane.step(grads[i], gradient_s)
+
+    def sharp(controls):  # positional, as benchmarks/design.py compiles it beforehand
+        return _sharp_lanes(controls, problem)
+
+    drive(problem, lanes, minimise, stored, sharp, _surrogate_grad_lanes, progress)
     wall = time.perf_counter() - t0
     return [lane.result(wall) for lane in lanes]

@@ -42,6 +42,7 @@ the worst sample.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from collections.abc import Callable, Mapping
 from typing import Any
@@ -647,17 +648,49 @@ def design(
         tolerance=tolerance, aim=aim,
     )  # fmt: skip
     lane = _Lane(problem, start, minimise, limits, max_beam_mass_ratio, low, high, row, options)
-    stored = stored_checkpoints(problem, checkpoints)
-    for it in range(steps + 1):
-        controls = jnp.asarray(lane.c)
-        tick = time.perf_counter()
-        raw, (codes, _) = _sharp(controls, problem)
-        _refuse_failed(codes, problem, controls)
-        weights = lane.observe(it, raw, time.perf_counter() - tick, progress)
-        if weights is None:
-            break
-        tick = time.perf_counter()
-        _, grad = _surrogate_grad(controls, weights, problem, minimise, stored)
-        grad = np.asarray(grad)
-        lane.step(grad, time.perf_counter() - tick)
+
+    def sharp(controls):  # one design: the single program, given and giving a lane axis
+        return jax.tree_util.tree_map(lambda x: x[None], _sharp(controls[0], problem))
+
+    def gradient(controls, weights, *args):
+        _, grad = _surrogate_grad(controls[0], {k: w[0] for k, w in weights.items()}, *args)
+        return None, grad[None]
+
+    drive(problem, [lane], minimise, stored_checkpoints(problem, checkpoints), sharp, gradient,
+          None if progress is None else lambda i, it, record: progress(it, record))  # fmt: skip
     return lane.result(time.perf_counter() - t0)
+
+
+def drive(problem, lanes, minimise, stored, sharp, gradient, progress) -> None:
+    """The loop of `design` and `design_front`: each iteration one sharp run of every design
+    and one gradient of every design that goes on (`sharp(controls)` and `gradient(controls,
+    weights, problem, minimise, stored)` take and give a leading axis over `lanes`); a design
+    that has stopped is carried along unchanged until the last one stops. `progress(i, it,
+    record)`: design i's iteration it."""
+    steps = max(lane.steps for lane in lanes)
+    for it in range(steps + 1):
+        controls = jnp.asarray(np.stack([lane.c for lane in lanes]))
+        tick = time.perf_counter()
+        raw, (codes, _) = sharp(controls)
+        codes = np.asarray(codes)
+        sharp_s = time.perf_counter() - tick
+        weights = []
+        for i, lane in enumerate(lanes):
+            if lane.done:
+                weights.append(None)
+                continue
+            _refuse_failed(codes[i], problem, controls[i])
+            told = None if progress is None else functools.partial(progress, i)
+            weights.append(lane.observe(it, {k: v[i] for k, v in raw.items()}, sharp_s, told))
+        if all(lane.done for lane in lanes):
+            return
+        keys = next(w for w in weights if w is not None)
+        zero = jnp.zeros((), jnp.float64)  # a stopped design: its gradient is not used
+        stacked = {k: jnp.stack([zero if w is None else w[k] for w in weights]) for k in keys}
+        tick = time.perf_counter()
+        _, grads = gradient(controls, stacked, problem, minimise, stored)
+        grads = np.asarray(grads)
+        gradient_s = time.perf_counter() - tick
+        for i, lane in enumerate(lanes):
+            if weights[i] is not None:
+                lane.step(grads[i], gradient_s)
