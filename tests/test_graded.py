@@ -305,3 +305,17 @@ def test_a_front_runs_each_limit_s_design_in_one_batch(small_design):
         o.design_front(problem, "ring", [0.1])
     with pytest.raises(ValueError, match="values is empty"):
         o.design_front(problem, "deflection", [])
+
+
+def test_design_front_shares_design_s_keyword_defaults():
+    """design_front repeats design's keyword arguments (explicit, for help() and editors);
+    their defaults must not drift apart."""
+    import inspect
+
+    single = inspect.signature(o.design).parameters
+    front = inspect.signature(o.design_front).parameters
+    shared = [k for k in single if k in front and k != "problem"]
+    assert len(shared) == 13
+    for k in shared:
+        if k != "progress":  # design's callback takes (it, record), the front's (i, it, record)
+            assert front[k].default == single[k].default, k
