@@ -96,12 +96,6 @@ def _jvp_deflection(controls, tangent, problem):
     return jax.jvp(f, (controls,), (tangent,))[1]
 
 
-@eqx.filter_jit
-def _sharp_batch(controls, problem):
-    """The sharp quantities of many designs (rows of `controls`) in one vmapped program."""
-    return jax.vmap(lambda c: quantities(c, problem, sharp=True))(controls)
-
-
 def floats(values: dict) -> dict:
     return {k: float(v) for k, v in values.items()}
 
@@ -277,7 +271,7 @@ def uniform_rechecks(problems: dict, grid: np.ndarray) -> dict:
     out = {}
     for check, problem in problems.items():
         rows = jnp.asarray(np.repeat(grid[:, None], problem.points, 1))
-        values, (codes, _) = _sharp_batch(rows, problem)
+        values, (codes, _) = _sharp_lanes(rows, problem)
         values = {k: np.asarray(v) for k, v in values.items()}
         j, met = best_uniform(values, grid, LIMIT)
         out[check] = {k: float(v[j]) for k, v in values.items()} | {
@@ -349,7 +343,7 @@ def main() -> None:
     grid = np.linspace(BOUNDS[0], BUDGET * h0, 20)
     tick = time.perf_counter()
     uniform = jnp.asarray(np.repeat(grid[:, None], problem.points, 1))
-    batch, (codes, _) = _sharp_batch(uniform, problem)
+    batch, (codes, _) = _sharp_lanes(uniform, problem)
     batch = {k: np.asarray(v) for k, v in batch.items()}
     uniform_s = time.perf_counter() - tick
     ok = [m.RESULTS(int(k)).status for k in np.asarray(codes)]
