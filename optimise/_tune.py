@@ -444,9 +444,16 @@ def _finish(run: _Run, problem: Problem, box: Box, status: str, start: float) ->
     final = [m.RESULTS(int(c)).status for c in np.atleast_1d(np.asarray(sharp.result))]
     settled = all(c == m.RESULTS.settled for c in np.atleast_1d(np.asarray(sharp.result)))
     if not settled:
+        unsettled, count = sum(status != "settled" for status in final), len(final)
+        if count == 1:
+            which = "the final collision did not settle"
+        elif unsettled == count:
+            which = f"none of the {count} final collisions settled"
+        else:
+            which = f"{unsettled} of the {count} final collisions did not settle"
         message += (
-            f"; note: the final collision did not settle ({', '.join(sorted(set(final)))}): "
-            "raise --t-max so that the split is final"
+            f"; note: {which} (ended: {', '.join(sorted(set(final)))}): raise t_max "
+            "(`--t-max`) so that the split is final"
         )
     return TuneResult(
         design=point,

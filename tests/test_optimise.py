@@ -223,6 +223,10 @@ def test_robust_tuning_meets_the_expected_split_on_the_sharp_model(robust_proble
     spread = result.spread["beam"]
     assert spread["min"] == pytest.approx(per_sample.min()) and spread["std"] > 0.01
     assert "2 impact samples" in result.message
+    # t_max = 1.5 stops both samples early, and the note says so (it once read "the final
+    # collision did not settle (settled, time limit)" over three samples)
+    assert result.final_status == ["time limit", "time limit"] and not result.settled
+    assert "note: none of the 2 final collisions settled (ended: time limit)" in result.message
 
 
 def test_cli_robust_tune_json(robust_problem, capsys):
