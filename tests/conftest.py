@@ -89,6 +89,23 @@ SHORT = m.Settings(t_max=1.5, history_points=31, shape_times=(0.5,))
 COMPARE_SMOOTHING = 1e-3
 
 
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the marks (its loadgroup suffix)
+def pytest_collection_modifyitems(config, items):
+    """pytest-xdist (`--dist loadgroup`) hands out tests one by one, so a module's tests land
+    on both workers and each worker builds the module's fixtures again: a module-scoped
+    fixture (a design, a LocalCluster with its own compile cache, a batch of runs) was made
+    twice. A test that uses a module-scoped fixture runs in its module's group, so each such
+    fixture is made once; the other tests still spread over the workers. A test that names
+    its own group (a doc's blocks, tests/test_docs.py) keeps it."""
+    for item in items:
+        if item.get_closest_marker("xdist_group") is not None:
+            continue
+        info = getattr(item, "_fixtureinfo", None)
+        definitions = getattr(info, "name2fixturedefs", {}) or {}
+        if any(defs and defs[-1].scope == "module" for defs in definitions.values()):
+            item.add_marker(pytest.mark.xdist_group(item.module.__name__))
+
+
 @pytest.fixture(autouse=True)
 def _no_export_store_leaks():
     """A test that runs the CLI in-process switches the export store on (as the CLI does);

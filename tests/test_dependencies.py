@@ -64,3 +64,19 @@ def test_the_suite_compiles_without_the_fusion_emitters_where_xla_knows_the_flag
         check=True,
     )
     assert FAST_COMPILE_FLAG in child.stdout  # what a docs block or a notebook kernel sees
+
+
+@pytest.fixture(scope="module")
+def _module_resource():
+    return object()
+
+
+def test_a_test_with_a_module_fixture_runs_in_its_module_s_group(request, _module_resource):
+    """conftest's collection hook: under pytest-xdist a module-scoped fixture is made once,
+    by one worker, because the tests that use it run in their module's group."""
+    mark = request.node.get_closest_marker("xdist_group")
+    assert mark is not None and mark.args == (__name__,)
+
+
+def test_a_test_without_one_is_handed_out_alone(request):
+    assert request.node.get_closest_marker("xdist_group") is None
