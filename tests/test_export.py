@@ -73,6 +73,7 @@ assert _export._load(path, key) is not None and _export._load(path, key + "x") i
 path.rename(_export._path("simulate", key))
 program = _export.compile_program(_simulate, *args, name="simulate")
 assert program.source == "loaded", program.reason
+assert program.make_s is None  # a record without its making time (as before it was kept)
 solution = program(*args)
 traced = _simulate(*args)
 assert jax.tree_util.tree_structure(solution) == jax.tree_util.tree_structure(traced)
@@ -101,6 +102,8 @@ def test_small_program_round_trip_and_fallbacks(store, scene, monkeypatch):
     assert first.source == "exported" and len(list(store.glob("critical_step-*"))) == 1
     second = _export.compile_program(_critical, scene, name="critical_step")
     assert second.source == "loaded"
+    # the loaded program carries what making it cost, as the exporting process measured it
+    assert first.make_s > 0 and second.make_s == first.make_s
     _assert_same(first(scene), traced)
     _assert_same(second(scene), traced)
     # an edited source is another key: traced and stored anew, never the old program

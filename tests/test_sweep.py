@@ -347,6 +347,56 @@ def test_the_scalar_tail_gives_the_same_rows(monkeypatch):
             np.testing.assert_array_equal(np.asarray(wide[key]), np.asarray(scalar[key]), key)
 
 
+def test_a_warm_run_keeps_the_cold_run_s_tail(tmp_path, monkeypatch):
+    """The tail's payback rule compares with what making the first programs cost, also when
+    they were loaded from the store: their load time once let a warm run compile programs of
+    fewer slots that the cold run had kept from (the same CLI sweep run again with `--parquet`:
+    three new programs, 16 s -> 21 s)."""
+    from msfd_jax._runtime import export as _export
+    from msfd_jax._sweeps import queue as _queue
+
+    _export.enable(tmp_path)  # the autouse fixture switches the store off again
+    made = []
+    real = _export.compile_program
+
+    def seen(fn, *args, name):
+        program = real(fn, *args, name=name)
+        made.append((name, program.source, program.make_s))
+        return program
+
+    monkeypatch.setattr(_queue._export, "compile_program", seen)
+    costs = []  # (the cost the rule compares with, the seconds this run spent compiling)
+    compact = _queue._SweepQueue.compact
+
+    def compact_seen(self, slots):
+        costs.append((self.make_times[0], self.compile_times[0]))
+        return compact(self, slots)
+
+    monkeypatch.setattr(_queue._SweepQueue, "compact", compact_seen)
+
+    def run():
+        return sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH,
+                     workers=1)  # fmt: skip
+
+    cold = run()
+    cold_made, made[:], costs[:] = list(made), [], []
+    warm = run()
+    queue_programs = [m for m in made if m[0].startswith("queue_")]
+    assert queue_programs and all(source == "loaded" for _, source, _ in queue_programs)
+    # each loaded program knows what the cold run paid to make it, and the rule compares
+    # with that, not with the warm run's loading
+    cold_cost = {name: make_s for name, source, make_s in cold_made if source == "exported"}
+    assert all(make_s == cold_cost[name] for name, _, make_s in queue_programs)
+    first = [cold_cost[n] for n in ("queue_segment", "queue_report", "queue_refill")]
+    assert costs and all(rule == sum(first) for rule, _ in costs)
+    assert all(loading < rule for rule, loading in costs)
+    assert warm.timing["compactions"] == cold.timing["compactions"]
+    assert warm.timing["slots"] == cold.timing["slots"]
+    for key in OUTPUTS:
+        if key != "wall_time_s":
+            np.testing.assert_array_equal(np.asarray(warm[key]), np.asarray(cold[key]), key)
+
+
 def test_the_default_slots_follow_the_platform(monkeypatch):
     """A sweep not told its slots takes 32 per worker on a CPU and 8192 on a GPU."""
     from msfd_jax._sweeps import queue as _queue

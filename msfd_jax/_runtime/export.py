@@ -37,6 +37,7 @@ import pickle
 import sys
 import tempfile
 import threading
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -154,14 +155,25 @@ class Program:
 
     `source` says where it came from: ``"loaded"`` (a stored serialized program),
     ``"exported"`` (traced, serialized and stored now) or ``"traced"`` (no store, or the
-    program could not be exported; `reason` says why).
+    program could not be exported; `reason` says why). `make_s`: the seconds tracing and
+    compiling it took when it was made, measured now or, for a loaded program, recorded in
+    the store by the process that made it (None for a record written before it was kept):
+    what another program of its kind would cost to make, which its load time does not tell.
     """
 
-    def __init__(self, compiled: Callable, template: Any, source: str, reason: str = ""):
+    def __init__(
+        self,
+        compiled: Callable,
+        template: Any,
+        source: str,
+        reason: str = "",
+        make_s: float | None = None,
+    ):
         self._compiled = compiled
         self._template = template
         self.source = source
         self.reason = reason
+        self.make_s = make_s
 
     def __call__(self, *args):
         if self._template is None:  # a traced program takes the arguments as they are
@@ -225,22 +237,23 @@ def compile_program(fn: Callable, *args, name: str) -> Program:
     path = _path(name, key_text)
     loaded = _load(path, key_text)
     if loaded is not None:
-        exported, template = loaded
-        source = "loaded"
-    else:
-        _compiling()
-        try:
-            exported, template = _export(fn, dynamic, rebuild)
-            serialized = bytes(exported.serialize())
-            # compile what a later process loads: a deserialized program lowers to another
-            # module than the fresh one, and only the same module hits the compile cache
-            exported = jax.export.deserialize(bytearray(serialized))
-        except Exception as error:  # noqa: BLE001 (any export failure falls back to tracing)
-            return _traced(fn, args, f"export failed: {type(error).__name__}: {error}")
-        _save(path, key_text, serialized, template)
-        source = "exported"
+        exported, template, make_s = loaded
+        compiled = jax.jit(exported.call).lower(*dynamic).compile()
+        return Program(compiled, template, "loaded", make_s=make_s)
+    _compiling()
+    tick = time.perf_counter()
+    try:
+        exported, template = _export(fn, dynamic, rebuild)
+        serialized = bytes(exported.serialize())
+        # compile what a later process loads: a deserialized program lowers to another
+        # module than the fresh one, and only the same module hits the compile cache
+        exported = jax.export.deserialize(bytearray(serialized))
+    except Exception as error:  # noqa: BLE001 (any export failure falls back to tracing)
+        return _traced(fn, args, f"export failed: {type(error).__name__}: {error}")
     compiled = jax.jit(exported.call).lower(*dynamic).compile()
-    return Program(compiled, template, source)
+    make_s = time.perf_counter() - tick
+    _save(path, key_text, serialized, template, make_s)
+    return Program(compiled, template, "exported", make_s=make_s)
 
 
 def _path(name: str, key_text: str) -> Path:
@@ -251,7 +264,9 @@ def _path(name: str, key_text: str) -> Path:
 
 def _traced(fn: Callable, args: tuple, reason: str) -> Program:
     _compiling()
-    return Program(fn.lower(*args).compile(), None, "traced", reason)
+    tick = time.perf_counter()
+    compiled = fn.lower(*args).compile()
+    return Program(compiled, None, "traced", reason, make_s=time.perf_counter() - tick)
 
 
 def _dynamic(args: tuple):
@@ -351,19 +366,23 @@ def _export(fn: Callable, dynamic: list, rebuild: Callable):
 
 
 def _load(path: Path, key_text: str):
-    """(Exported, template) stored at `path` under `key_text`, or None (any failure)."""
+    """(Exported, template, make_s) stored at `path` under `key_text`, or None (any
+    failure); make_s is None in a record written before it was kept."""
     try:
         record = pickle.loads(path.read_bytes())
         if record.get("key") != key_text:
             return None
-        return jax.export.deserialize(bytearray(record["exported"])), record["template"]
+        exported = jax.export.deserialize(bytearray(record["exported"]))
+        return exported, record["template"], record.get("make_s")
     except Exception:  # noqa: BLE001 (missing, truncated or foreign file: trace instead)
         return None
 
 
-def _save(path: Path, key_text: str, serialized: bytes, template) -> None:
+def _save(
+    path: Path, key_text: str, serialized: bytes, template, make_s: float | None = None
+) -> None:
     """Write atomically (a temporary file renamed), so a reader never sees half a file."""
-    record = {"key": key_text, "exported": serialized, "template": template}
+    record = {"key": key_text, "exported": serialized, "template": template, "make_s": make_s}
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")

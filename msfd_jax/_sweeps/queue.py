@@ -53,7 +53,10 @@ DEFAULT_SEGMENT = 64  # diffrax steps (x substeps Verlet steps) between refills
 # segments for TAIL_PAYBACK x the first programs' compilation: the tail lasts about one
 # collision, so in a sweep that ran for less than a compilation a new program cannot pay for
 # itself (a 6-collision sweep of a coarse mesh compiled three more sizes for a tail of
-# 0.3 s). Programs already compiled (or loaded from the store) are always used.
+# 0.3 s). Programs already compiled (or loaded from the store) are always used. The cost
+# compared is the first programs' making (tracing and compiling), also when they were loaded
+# from the store: their load time (0.5 s) let a warm run compile new sizes for a tail that a
+# cold run kept (a CLI sweep run again with `--parquet`: 16 s -> 21 s, three new programs).
 TAIL_PAYBACK = 1.0
 
 
@@ -279,6 +282,7 @@ class _SweepQueue:
         self.programs: dict[int, tuple] = {}
         self.compiling = threading.Lock()
         self.compile_times: list[float] = []  # the first: the programs of the starting size
+        self.make_times: list[float] = []  # the seconds each size's programs took to make
         self.errors: list[BaseException] = []  # a worker thread's exception, re-raised by `run`
 
     def run(self, workers: int, size: int) -> dict:
@@ -384,6 +388,10 @@ class _SweepQueue:
                     _export.compile_program(_refill, *refill_args, name="queue_refill"),
                 )
                 self.compile_times.append(time.perf_counter() - tick)
+                made = [program.make_s for program in self.programs[size]]
+                # what a new size costs: the first size's making, recorded by the process that
+                # made it when it was loaded here (its load took milliseconds)
+                self.make_times.append(sum(made) if None not in made else self.compile_times[-1])
             return self.programs[size]
 
     def fill_slots(self, size: int) -> _Slots | None:
@@ -481,7 +489,7 @@ class _SweepQueue:
         smaller = _tail_size(running, size) if self.on_cpu else _tail_size_gpu(running, size)
         if smaller >= size:
             return
-        if smaller not in self.programs and slots.segment_s < TAIL_PAYBACK * self.compile_times[0]:
+        if smaller not in self.programs and slots.segment_s < TAIL_PAYBACK * self.make_times[0]:
             return  # a new compilation would cost more than the tail can save
         keep = np.flatnonzero(slots.row >= 0)
         idx = np.concatenate([keep, np.full(smaller - len(keep), keep[0])])
