@@ -60,6 +60,7 @@ from optimise._front import _sharp_lanes, _surrogate_grad_lanes  # noqa: E402
 # the design module's compiled programs (no public API): the sharp quantities of a design and
 # the surrogate's reverse-mode gradient, timed and checked here one by one
 from optimise._graded import _sharp, _surrogate_grad, quantities, stored_checkpoints  # noqa: E402
+from optimise._search import _surrogate_jacobian  # noqa: E402
 
 T_IMPORTS = time.perf_counter() - T_START
 LIMIT = 0.16  # deflection limit [m]
@@ -124,6 +125,14 @@ def section_gradient(p, scales, mesh, rounds: int) -> tuple[list[str], dict]:
             "deceleration_10ms",
             stored,
         ),
+        # SLSQP's (`optimise.design`'s default method): the objective's and one limit's rows
+        f"reverse Jacobian, 2 rows x {n} segments (`_surrogate_jacobian`, SLSQP's)": (
+            _surrogate_jacobian,
+            c,
+            problem,
+            ("deceleration_10ms", "deflection"),
+            stored,
+        ),
         # diffrax's default (checkpoints=None): binomial checkpoints, steps recomputed
         f"reverse gradient, all {n} segments, diffrax's default checkpoints (recomputing)": (
             _surrogate_grad,
@@ -143,7 +152,7 @@ def section_gradient(p, scales, mesh, rounds: int) -> tuple[list[str], dict]:
     _, times = _bench.interleaved_times(programs, rounds)
     med = {k: statistics.median(v) for k, v in times.items()}
     names = list(programs)
-    sharp, smooth, rev, recomputing, jvp = (med[k] for k in names)
+    sharp, smooth, rev, jac, recomputing, jvp = (med[k] for k in names)
     # correctness: five components against central differences and forward mode
     values, grad = _surrogate_grad(c, weights, problem, "deceleration_10ms", stored)
     grad = np.asarray(grad)
@@ -199,7 +208,11 @@ def section_gradient(p, scales, mesh, rounds: int) -> tuple[list[str], dict]:
         "gap between the two ratios. diffrax's default checkpoints (binomial, recomputing "
         f"steps in the backward sweep) cost {recomputing / smooth:.1f}x. Forward mode costs "
         f"{jvp / smooth:.1f}x a smoothed run per direction: {n} directions "
-        f"{n * jvp / rev:.0f}x the reverse gradient.",
+        f"{n * jvp / rev:.0f}x the reverse gradient. SLSQP (`optimise.design`'s default "
+        "method) needs the objective's and each limit's gradient: their Jacobian, one forward "
+        f"run and the backward sweeps vmapped over the rows, costs {jac / sharp:.1f} sharp runs "
+        f"for two rows ({jac / rev:.2f}x the one-row gradient; `optimise._search.JACOBIAN_COST` "
+        f"= {o._search.JACOBIAN_COST:g} is what `GradedDesign.evaluations` counts).",
         "",
         "| segment | reverse [m] | central diff. h = 1e-3 | central diff. h = 1e-4 | "
         "forward mode | rel. err. vs CD (best h) | rel. err. vs forward |",
@@ -219,7 +232,7 @@ def section_gradient(p, scales, mesh, rounds: int) -> tuple[list[str], dict]:
         "effect of order PEAK_WIDTH x log(samples near the top)).",
         "",
     ]
-    info = {"sharp": sharp, "smooth": smooth, "reverse": rev, "jvp": jvp, "n": n}
+    info = {"sharp": sharp, "smooth": smooth, "reverse": rev, "jacobian": jac, "jvp": jvp, "n": n}
     return lines, info
 
 
@@ -321,12 +334,14 @@ def main() -> None:
     cold["compile: sharp forward"] = first - warm
     f64 = jnp.float64  # as `design` gives them (a weakly typed scalar would compile anew)
     w0 = {"deceleration_10ms": jnp.asarray(1e-3, f64), "deflection": jnp.asarray(0.0, f64)}
-    # the program `design` runs (every step stored): another checkpoints value would compile
-    # a second program inside the loop (this section did so until 2026-12-07)
-    args_grad = (c0, w0, problem, "deceleration_10ms", stored_checkpoints(problem))
-    _, first_g = timed(_surrogate_grad, *args_grad)
-    _, warm_g = timed(_surrogate_grad, *args_grad)
-    cold["compile: surrogate gradient"] = first_g - warm_g
+    names = ("deceleration_10ms", "deflection")
+    # the program `design` runs (its default method, SLSQP: the Jacobian of the objective and
+    # the limit, every step stored): another checkpoints value would compile a second program
+    # inside the loop (this section did so until 2026-12-07)
+    args_grad = (c0, problem, ("deceleration_10ms", "deflection"), stored_checkpoints(problem))
+    _, first_g = timed(_surrogate_jacobian, *args_grad)
+    _, warm_g = timed(_surrogate_jacobian, *args_grad)
+    cold["compile: surrogate Jacobian (SLSQP's)"] = first_g - warm_g
     trace = []
     result = o.design(
         problem,
@@ -370,34 +385,53 @@ def main() -> None:
     # --- 3: gradients against COBYLA at K >= 10 --------------------------------------------
     k10 = min(10, m.beam_segments(mesh))
     problem10 = o.graded_problem(p, scales, mesh, profile_points=k10, bounds=BOUNDS)
-    stamps = []
-    tick10 = time.perf_counter()
+    stored10 = stored_checkpoints(problem10)  # the programs `design` runs
     c10 = jnp.asarray(np.full(k10, h0))
-    _sharp(c10, problem10)  # compile both programs before the clock starts
-    stored10 = stored_checkpoints(problem10)  # the program `design` runs
-    jax.block_until_ready(_surrogate_grad(c10, w0, problem10, "deceleration_10ms", stored10))
-    compile10 = time.perf_counter() - tick10
-    t_begin = time.perf_counter()
-    grad10 = o.design(
-        problem10,
-        limits={"deflection": LIMIT},
-        progress=lambda it, rec: stamps.append(time.perf_counter()),
-        **kw,
-    )
-    target = grad10.values["deceleration_10ms"]
-    # feasible: the first iterate as good as the best; infeasible: as good as the closest
-    v_target = max(0.0, grad10.values["deflection"] / LIMIT - 1.0)
-    hit = next(
-        i
-        for i, r in enumerate(grad10.history)
-        if r["violation"] <= v_target * (1 + 1e-9) and r["objective"] <= target * (1 + 1e-12)
-    )
-    grad_cost = cost["reverse"] / cost["sharp"]
-    reach_grad = {
-        "GRADIENT_COST": (hit + 1) + o._graded.GRADIENT_COST * hit,
-        "measured": (hit + 1) + grad_cost * hit,
-        "wall": stamps[hit] - t_begin,
-    }
+    grad10 = {}
+    for method in o._graded.METHODS:  # slsqp (the default), adam
+        tick10 = time.perf_counter()
+        _sharp(c10, problem10)  # compile the method's programs before its clock starts
+        if method == "slsqp":
+            jax.block_until_ready(_surrogate_jacobian(c10, problem10, names, stored10))
+            per, counted = cost["jacobian"] / cost["sharp"], o._search.JACOBIAN_COST
+        else:
+            jax.block_until_ready(
+                _surrogate_grad(c10, w0, problem10, "deceleration_10ms", stored10)
+            )
+            per, counted = cost["reverse"] / cost["sharp"], o._graded.GRADIENT_COST
+        compile10 = time.perf_counter() - tick10
+        stamps = []
+        t_begin = time.perf_counter()
+        found = o.design(
+            problem10,
+            limits={"deflection": LIMIT},
+            method=method,
+            progress=lambda it, rec, stamps=stamps: stamps.append(time.perf_counter()),
+            **kw,
+        )
+        target = found.values["deceleration_10ms"]
+        # feasible: the first point as good as the best; infeasible: as good as the closest
+        v_target = max(0.0, found.values["deflection"] / LIMIT - 1.0)
+        hit = next(
+            i
+            for i, r in enumerate(found.history)
+            if r["violation"] <= v_target * (1 + 1e-9) and r["objective"] <= target * (1 + 1e-12)
+        )
+        grad10[method] = {
+            "result": found,
+            "target": target,
+            "v_target": v_target,
+            "hit": hit,
+            "per": per,
+            "counted": counted,
+            "compile": compile10,
+            "reach": {
+                "counted": (hit + 1) + counted * hit,
+                "measured": (hit + 1) + per * hit,
+                "wall": stamps[hit] - t_begin,
+            },
+        }
+        print(f"K = {k10}, {method}:", found.status, target, hit, flush=True)
     row = problem10.mass_row()
     start = o._graded.project_budget(np.full(k10, h0), *BOUNDS, row, BUDGET)
     scale = result.start["deceleration_10ms"]
@@ -448,14 +482,17 @@ def main() -> None:
         options={"maxiter": args.dfo_evals, "rhobeg": 0.25, "tol": 1e-4},
     )
     dfo_wall = time.perf_counter() - t_dfo
-    reach_dfo = next(
-        (
-            (i + 1, t)
-            for i, (t, a, _, viol) in enumerate(log)
-            if viol <= v_target * (1 + 1e-9) and a <= target * (1 + 1e-12)
-        ),
-        None,
-    )
+    reach_dfo = {
+        method: next(
+            (
+                (i + 1, t)
+                for i, (t, a, _, viol) in enumerate(log)
+                if viol <= g["v_target"] * (1 + 1e-9) and a <= g["target"] * (1 + 1e-12)
+            ),
+            None,
+        )
+        for method, g in grad10.items()
+    }
     best_dfo = min((a for _, a, ok_, _ in log if ok_), default=float("nan"))
 
     # --- 5: Pareto front -------------------------------------------------------------------
@@ -516,10 +553,7 @@ def main() -> None:
         result, batch, grid, iu, uniform_met, u_best, uniform_s, ok, h0, kw, reference
     )
     checks_lines = report_checks(checks, result, u_best, designs, own_uniform)
-    lines += report_dfo(
-        grad10, k10, hit, v_target, reach_grad, grad_cost, compile10, dfo, log, reach_dfo, best_dfo,
-        dfo_wall, target,
-    )  # fmt: skip
+    lines += report_dfo(grad10, k10, dfo, log, reach_dfo, best_dfo, dfo_wall)
     lines += checks_lines
     rel_fig = os.path.relpath(figure, _bench.results_dir(args.quick))
     lines += [
@@ -715,61 +749,61 @@ def report_checks(checks, result, u_best, designs, own_uniform) -> list[str]:
     return lines
 
 
-def report_dfo(
-    grad10, k, hit, v_target, reach_grad, grad_cost, compile10, dfo, log, reach_dfo, best_dfo,
-    dfo_wall, target,
-) -> list[str]:  # fmt: skip
+def report_dfo(grad10, k, dfo, log, reach_dfo, best_dfo, dfo_wall) -> list[str]:
+    label = {"slsqp": "SLSQP (the default)", "adam": "Adam, augmented Lagrangian"}
     lines = [
         f"## 3. Gradients against a derivative-free search (K = {k} control points)",
         "",
-        f"Both from the same start (the uniform beam projected into the budget), on the same "
-        f"sharp objective and limits. Gradient: `optimise.design` with K = {k}, status "
-        f"{grad10.status}, {grad10.iterations} iterations, "
-        f"{'best feasible' if grad10.status != 'infeasible' else 'closest (infeasible)'} 10 ms "
-        "deceleration "
-        f"{target:.0f} m/s^2 ({target / G:.1f} g), deflection "
-        f"{grad10.values['deflection']:.4f} m, mass {grad10.values['beam_mass']:.3f}; "
-        f"first reached at iteration {hit}"
-        + (
-            ""
-            if v_target == 0
-            else f" (no feasible iterate: the target is this objective at a deflection excess "
-            f"<= {100 * v_target:.2f} %, for both methods)"
-        )
-        + ". Derivative-free: `scipy.optimize.minimize(method="
-        f"'COBYLA')` (constraints native: deflection <= {LIMIT} m, mass budget and bounds as "
-        f"inequalities; rhobeg 0.25, at most {dfo.nfev if hasattr(dfo, 'nfev') else '?'} "
-        "evaluations made), each distinct point one sharp run. A gradient's cost in forward "
-        "runs: `GradedDesign` counts `GRADIENT_COST` = "
-        f"{o._graded.GRADIENT_COST:g}; measured in section 1: {grad_cost:.1f} sharp runs "
-        "(both given). Wall times exclude compiling (the gradient's programs: "
-        f"{compile10:.0f} s, compiled before its clock; COBYLA reuses the sharp program).",
+        "All from the same start (the uniform beam projected into the budget), on the same "
+        f"sharp objective and limits. Gradient: `optimise.design` with K = {k}, by each of its "
+        "methods. Derivative-free: `scipy.optimize.minimize(method='COBYLA')` (constraints "
+        f"native: deflection <= {LIMIT} m, mass budget and bounds as inequalities; rhobeg "
+        f"0.25, {len(log)} evaluations made), each distinct point one sharp run. A gradient "
+        "point's cost in forward runs: one sharp run and the surrogate's gradient (Adam: one "
+        "row) or Jacobian (SLSQP: the objective's and the limit's rows), counted in "
+        "`GradedDesign.evaluations` by the constants `GRADIENT_COST` and `JACOBIAN_COST`, and "
+        "measured in section 1 (both given). Wall times exclude compiling (each method's "
+        "programs compiled before its clock; COBYLA reuses the sharp program).",
         "",
-        "| method | forward-run equivalents to reach the gradient design's objective | wall [s] "
-        "| best feasible [m/s^2] | total evaluations | total wall [s] |",
-        "|---|---:|---:|---:|---:|---:|",
-        f"| gradient (design, K = {k}) | {reach_grad['GRADIENT_COST']:.0f} (GRADIENT_COST), "
-        f"{reach_grad['measured']:.0f} (measured cost) | {reach_grad['wall']:.0f} | "
-        f"{target:.0f} | {grad10.evaluations:g} | {grad10.wall_time_s:.0f} |",
+        "| method | status, points | best feasible [m/s^2] (g) | deflection [m] | reached at "
+        "point | forward-run equivalents to reach it (counted, measured) | wall to reach it "
+        "[s] | total wall [s] (compile before) |",
+        "|---|---|---:|---:|---:|---:|---:|---:|",
     ]
-    if reach_dfo:
-        dfo_reach = f"{reach_dfo[0]} | {reach_dfo[1]:.0f}"
-    else:
-        dfo_reach = f"not reached (> {len(log)}) | > {dfo_wall:.0f}"
-    lines.append(f"| COBYLA | {dfo_reach} | {best_dfo:.0f} | {len(log)} | {dfo_wall:.0f} |")
-    need = reach_dfo[0] if reach_dfo else len(log)
-    ratio_c = need / reach_grad["GRADIENT_COST"]
-    ratio_m = need / reach_grad["measured"]
+    for method, g in grad10.items():
+        r, reach = g["result"], g["reach"]
+        lines.append(
+            f"| {label[method]} | {r.status}, {r.iterations} | {g['target']:.0f} "
+            f"({g['target'] / G:.1f}) | {r.values['deflection']:.4f} | {g['hit']} | "
+            f"{reach['counted']:.0f}, {reach['measured']:.0f} | {reach['wall']:.0f} | "
+            f"{r.wall_time_s:.0f} ({g['compile']:.0f}) |"
+        )
+    lines.append(
+        f"| COBYLA | {dfo.message.split('because ')[-1].rstrip('.')} | {best_dfo:.0f} "
+        f"({best_dfo / G:.1f}) | | | | | {dfo_wall:.0f} |"
+    )
     lines += [
         "",
-        f"COBYLA: {dfo.message!r}. Ratio of forward-run equivalents, COBYLA / gradient: "
-        f"{'' if reach_dfo else '> '}{ratio_c:.2g}x with `GRADIENT_COST`, "
-        f"{'' if reach_dfo else '> '}{ratio_m:.2g}x with the measured gradient cost (below 1: "
-        "the gradient needed more). Goal "
-        f"(gradients >= 5x fewer at K >= 10): **{'met' if ratio_m >= 5 else 'missed'}** with "
-        f"the measured cost{'' if reach_dfo else ' (a lower bound: COBYLA stopped first)'}.",
+        "COBYLA to reach each gradient design's objective (the same limit excess or less):",
         "",
+        "| target | COBYLA evaluations (= forward runs) | COBYLA wall [s] | COBYLA / gradient, "
+        "forward-run equivalents (measured cost) | goal (>= 5) |",
+        "|---|---:|---:|---:|---|",
     ]
+    for method, g in grad10.items():
+        reach = reach_dfo[method]
+        need = reach[0] if reach else len(log)
+        ratio = need / g["reach"]["measured"]
+        at = (
+            f"{reach[0]} | {reach[1]:.0f}"
+            if reach
+            else f"not reached (> {len(log)}) | > {dfo_wall:.0f}"
+        )
+        lines.append(
+            f"| {label[method]}: {g['target']:.0f} m/s^2 | {at} | "
+            f"{'' if reach else '> '}{ratio:.2g}x | **{'met' if ratio >= 5 else 'missed'}** |"
+        )
+    lines.append("")
     return lines
 
 

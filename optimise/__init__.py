@@ -12,7 +12,6 @@ from ._graded import (
     QUANTITIES,
     GradedDesign,
     GradedProblem,
-    design,
     graded_problem,
     quantities,
 )
@@ -34,6 +33,7 @@ from ._objective import (
     share,
 )
 from ._problem import Evaluation, Problem, evaluate, make_problem
+from ._search import design
 from ._tune import DEFAULT_STAGES, Stage, TuneResult, achievable_range, tune
 
 __all__ = [

@@ -27,7 +27,8 @@ from msfd_jax.cli.common import SI
 
 from ._cli import _flat, _pair
 from ._conditions import Conditions
-from ._graded import QUANTITIES, design, graded_problem
+from ._graded import METHODS, QUANTITIES, graded_problem
+from ._search import design
 
 EXIT_INFEASIBLE = 4
 
@@ -73,7 +74,16 @@ def add_design_arguments(parser: argparse.ArgumentParser) -> None:
         help="control points of the profile (piecewise linear over the half span); "
         "absent: one free value per beam segment",
     )
-    group.add_argument("--steps", type=int, default=30, help="at most this many iterations")
+    group.add_argument(
+        "--method",
+        choices=METHODS,
+        default="slsqp",
+        help="slsqp: scipy's SLSQP on the smoothed surrogate, every point checked on the sharp "
+        "model (the default); adam: an augmented Lagrangian around projected Adam steps",
+    )
+    group.add_argument(
+        "--steps", type=int, default=30, help="at most this many points after the start"
+    )
     group.add_argument(
         "--impact-speeds",
         type=cli.values,
@@ -176,6 +186,7 @@ def design_command(args: argparse.Namespace) -> int:
             thickness_bounds=args.thickness_bounds,
             steps=args.steps,
             progress=step,
+            method=args.method,
         )
         graded = dataclasses.replace(params, thickness_profile=result.thickness_profile)
         found = m.run(graded, mesh, scales=scales)

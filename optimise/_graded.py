@@ -44,7 +44,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import time
-from collections.abc import Callable, Mapping
 from typing import Any
 
 import diffrax
@@ -415,6 +414,7 @@ class GradedDesign:
 # benchmarks/design.py (section 1); along a design the sharp run settles earlier or later
 # with the profile, and `history` records both times
 GRADIENT_COST = 20.0
+METHODS = ("slsqp", "adam")
 LIMITS = {
     "deflection": "max_deflection_m",
     "deceleration_10ms": "max_deceleration_10ms_m_s2",
@@ -501,6 +501,7 @@ class _Lane:
         self.samples = 1 if problem.conditions is None else len(problem.conditions)
         self.start_values: dict[str, float] = {}
         self.done = False
+        self.converged = False  # set by a method that has its own convergence test (SLSQP)
 
     def observe(self, it, raw, sharp_s, progress):
         """Take the sharp values of the current iterate; the surrogate's weights for the next
@@ -571,7 +572,8 @@ class _Lane:
 
     def result(self, wall_time_s: float) -> GradedDesign:
         if self.best is not None:
-            status = "converged" if self.stale >= self.patience else "feasible"
+            converged = self.converged or self.stale >= self.patience
+            status = "converged" if converged else "feasible"
             chosen, values, raw = self.best
         else:
             status = "infeasible"
@@ -607,58 +609,6 @@ class _Lane:
             self.history,
             samples,
         )
-
-
-def design(
-    problem: GradedProblem,
-    *,
-    minimise: str = "deceleration_10ms",
-    limits: Mapping[str, float] | None = None,
-    max_beam_mass_ratio: float | None = None,
-    thickness_bounds: tuple[float, float] | None = None,
-    start=None,
-    steps: int = 30,
-    learning_rate: float = 0.04,
-    penalty: float = 50.0,
-    patience: int = 8,
-    tolerance: float = 2e-3,
-    aim: float = 0.005,
-    checkpoints: int | None = None,
-    progress: Callable[[int, dict], None] | None = None,
-) -> GradedDesign:
-    """Minimise `minimise` (a `QUANTITIES` name) subject to upper `limits` on others
-    ({quantity: limit in its SI unit}, e.g. {"deflection": 0.16}), the beam mass ratio at most
-    `max_beam_mass_ratio` and every thickness in `thickness_bounds` (h/h_r; None: the
-    problem's bounds).
-
-    Starts from the uniform beam of the problem's ``thickness_ratio`` (or `start`, control
-    values), clipped into the bounds and the budget. `steps`: at most this many iterations,
-    each a sharp run (values, limits) and one reverse-mode gradient of the surrogate; stops
-    early when the best feasible objective has not improved by `tolerance` (relative) for
-    `patience` iterations. `aim`: the multipliers steer to this fraction inside each limit
-    (the limits themselves are checked exactly). `checkpoints`: diffrax's
-    RecursiveCheckpointAdjoint (None: one per step bound, nothing recomputed).
-    """
-    t0 = time.perf_counter()
-    limits, low, high, row = _checked(
-        problem, minimise, limits, max_beam_mass_ratio, thickness_bounds
-    )
-    options = dict(
-        steps=steps, learning_rate=learning_rate, penalty=penalty, patience=patience,
-        tolerance=tolerance, aim=aim,
-    )  # fmt: skip
-    lane = _Lane(problem, start, minimise, limits, max_beam_mass_ratio, low, high, row, options)
-
-    def sharp(controls):  # one design: the single program, given and giving a lane axis
-        return jax.tree_util.tree_map(lambda x: x[None], _sharp(controls[0], problem))
-
-    def gradient(controls, weights, *args):
-        _, grad = _surrogate_grad(controls[0], {k: w[0] for k, w in weights.items()}, *args)
-        return None, grad[None]
-
-    drive(problem, [lane], minimise, stored_checkpoints(problem, checkpoints), sharp, gradient,
-          None if progress is None else lambda i, it, record: progress(it, record))  # fmt: skip
-    return lane.result(time.perf_counter() - t0)
 
 
 def drive(problem, lanes, minimise, stored, sharp, gradient, progress) -> None:

@@ -157,36 +157,53 @@ SI = {**m.PAPER_SI, "block_mass": 67.0}
 
 @pytest.fixture(scope="module")
 def small_design():
+    """The same small problem by both methods: SLSQP (the default) and Adam (`design_front`'s)."""
     params, scales = m.from_si(**SI)
     problem = o.graded_problem(params, scales, MESH, profile_points=3)
     start, _ = o._graded._sharp(jnp.full(3, 2.5), problem)
     limit = 1.02 * float(start["deflection"])
-    result = o.design(
-        problem,
+    kw = dict(
         limits={"deflection": limit},
         max_beam_mass_ratio=1.0,
         thickness_bounds=(1.5, 4.0),
         steps=3,
     )
-    return params, scales, limit, result
+    found = {method: o.design(problem, method=method, **kw) for method in ("slsqp", "adam")}
+    return params, scales, limit, found
 
 
-def test_a_small_design_meets_its_limits_on_the_sharp_model(small_design):
-    params, scales, limit, result = small_design
+@pytest.mark.parametrize("method", ["slsqp", "adam"])
+def test_a_small_design_meets_its_limits_on_the_sharp_model(small_design, method):
+    params, scales, limit, found = small_design
+    result = found[method]
     assert result.status in ("converged", "feasible")
     assert result.values["deflection"] <= limit
     assert result.values["beam_mass"] <= 1.0 + 1e-12
     assert np.all((result.thickness_profile >= 1.5) & (result.thickness_profile <= 4.0))
-    assert result.values["deceleration_10ms"] <= result.start["deceleration_10ms"]
-    # every iteration's sharp run and (but the last) gradient timed, within the design's wall
+    assert result.values["deceleration_10ms"] < result.start["deceleration_10ms"]
+    # every point's sharp run and (but the last: the step budget stopped it) gradient timed,
+    # within the design's wall
     history = result.history
+    assert len(history) == 4  # the start and `steps` points
     assert all(r["sharp_s"] > 0 for r in history) and history[-1]["gradient_s"] == 0.0
     assert all(r["gradient_s"] > 0 for r in history[:-1])
     assert sum(r["sharp_s"] + r["gradient_s"] for r in history) <= result.wall_time_s
+    # the design kept is the best point that met the limit, by the sharp values recorded
+    met = [r["objective"] for r in history if r["violation"] <= 0.0]
+    assert result.values["deceleration_10ms"] == min(met)
     # an independent run of the found profile (msfd_jax.run, its own cap and samples)
     graded = dataclasses.replace(params, thickness_profile=result.thickness_profile)
     run = m.run(graded, MESH, scales=scales)
-    assert run.si["peak_beam_deflection_m"] == pytest.approx(result.values["deflection"], rel=1e-6)
+    expected = result.values["deflection"]
+    if run.retries:
+        # run halved its step (this coarse mesh's balance opens past 1e-4 K0 at some
+        # profiles; the design's runs keep theirs): compare at run's step, where the peak is
+        # again the same collision's to rounding (0.45 % apart at the two steps, seen)
+        at_step = o.graded_problem(
+            params, scales, MESH, profile_points=3, settings=m.Settings(safety=run.safety)
+        )
+        expected = float(o._graded._sharp(jnp.asarray(result.controls), at_step)[0]["deflection"])
+    assert run.si["peak_beam_deflection_m"] == pytest.approx(expected, rel=1e-6)
     assert float(m.beam_mass_ratio(graded, MESH)) == pytest.approx(
         result.values["beam_mass"], rel=1e-12
     )
@@ -205,6 +222,8 @@ def test_design_refuses_bad_inputs(small_design):
         o.design(problem, limits={"deceleration_10ms": 100.0})
     with pytest.raises(ValueError, match="reach outside the problem's bounds"):
         o.design(problem, thickness_bounds=(0.5, 5.0))
+    with pytest.raises(ValueError, match="method = 'cobyla'; allowed: slsqp, adam"):
+        o.design(problem, method="cobyla")
 
 
 def test_msfd_design_json(tmp_path, capsys, small_design):
@@ -244,6 +263,11 @@ def test_msfd_design_refuses_a_bad_table(tmp_path, capsys):
 
     assert main(["design", str(case), "--si"]) == 2
     assert "unknown key 'max_deflection' in [design]" in capsys.readouterr().err
+    case.write_text('[design]\nmethod = "cobyla"\n')
+    assert main(["design", str(case), "--si"]) == 2
+    assert "[design] method = 'cobyla' is not allowed; allowed: slsqp, adam" in (
+        capsys.readouterr().err
+    )
 
 
 def test_robust_design_takes_the_worst_sample_for_limits_and_the_mean_for_the_objective():
@@ -275,7 +299,8 @@ def test_a_front_runs_each_limit_s_design_in_one_batch(small_design):
     amplifies that (8.3e-5 relative in a peak measured between vmapped and single sharp runs,
     the robust-design test below), hence 1e-3. Each design meets its own limit, checked by an
     independent run."""
-    params, scales, limit, single = small_design
+    params, scales, limit, found = small_design
+    single = found["adam"]  # the method the front runs in lockstep
     problem = o.graded_problem(params, scales, MESH, profile_points=3)
     kw = dict(max_beam_mass_ratio=1.0, thickness_bounds=(1.5, 4.0), steps=3)
     seen = []
@@ -315,7 +340,7 @@ def test_design_front_shares_design_s_keyword_defaults():
     single = inspect.signature(o.design).parameters
     front = inspect.signature(o.design_front).parameters
     shared = [k for k in single if k in front and k != "problem"]
-    assert len(shared) == 13
+    assert len(shared) == 13 and "method" not in front  # the front runs Adam's method
     for k in shared:
         if k != "progress":  # design's callback takes (it, record), the front's (i, it, record)
             assert front[k].default == single[k].default, k
