@@ -749,6 +749,14 @@ def report_checks(checks, result, u_best, designs, own_uniform) -> list[str]:
     return lines
 
 
+def verdict(reach, ratio: float) -> str:
+    """The goal's verdict: met, missed, or undecided when COBYLA stopped before reaching the
+    target (the ratio is then a lower bound)."""
+    if ratio >= 5:
+        return "met"
+    return "missed" if reach else "undecided (COBYLA stopped first: a lower bound)"
+
+
 def report_dfo(grad10, k, dfo, log, reach_dfo, best_dfo, dfo_wall) -> list[str]:
     label = {"slsqp": "SLSQP (the default)", "adam": "Adam, augmented Lagrangian"}
     lines = [
@@ -801,7 +809,7 @@ def report_dfo(grad10, k, dfo, log, reach_dfo, best_dfo, dfo_wall) -> list[str]:
         )
         lines.append(
             f"| {label[method]}: {g['target']:.0f} m/s^2 | {at} | "
-            f"{'' if reach else '> '}{ratio:.2g}x | **{'met' if ratio >= 5 else 'missed'}** |"
+            f"{'' if reach else '> '}{ratio:.2g}x | **{verdict(reach, ratio)}** |"
         )
     lines.append("")
     return lines

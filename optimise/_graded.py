@@ -25,14 +25,17 @@ and it plus w log(n), n the samples within a few w of the top (its bias is in th
 benchmark's report). The step of `design` uses the surrogate's direction and the sharp model's
 values (as `optimise.tune` does for the shares).
 
-**Constrained method**: an augmented Lagrangian (Powell-Hestenes-Rockafellar) around optax's
-Adam in unit coordinates; the thickness bounds and the beam mass budget (linear in the control
-values) are enforced exactly by projection (clip, then bisection on the budget's multiplier),
-so every iterate is within bounds and budget. The other limits (deflection, deceleration,
-contact force, shares) are constraints g = q / limit - 1 <= 0 with multipliers updated each
-step, lambda <- max(0, lambda + mu g). The best design that meets every limit on the sharp
-model is kept; none meeting them gives ``status = "infeasible"`` with the closest design found
-(the smallest largest violation).
+**Constrained methods** (`METHODS`; `optimise.design` runs them, `optimise/_search.py`):
+``"slsqp"``, the default: scipy's SLSQP on the surrogate (values and the Jacobian of the
+objective and the limited quantities), every point it evaluates checked on the sharp model.
+``"adam"``: an augmented Lagrangian (Powell-Hestenes-Rockafellar) around optax's Adam in unit
+coordinates (`_Lane`, `drive`; `design_front` runs it in lockstep); the thickness bounds and
+the beam mass budget (linear in the control values) are enforced exactly by projection (clip,
+then bisection on the budget's multiplier), so every iterate is within bounds and budget; the
+other limits (deflection, deceleration, contact force) are constraints g = q / limit - 1 <= 0
+with multipliers updated each step, lambda <- max(0, lambda + mu g). Either way the best
+design that meets every limit on the sharp model is kept; none meeting them gives ``status =
+"infeasible"`` with the closest design found (the smallest largest violation).
 
 **Robust design**: with `optimise.Conditions` (impact speeds and masses), each iterate runs every
 sample in one vmapped program; the objective is the mean over the samples, each limit applies to
@@ -362,7 +365,8 @@ def project_budget(c, low, high, row, budget):
 class GradedDesign:
     """What `design` found (sharp-model values throughout).
 
-    - `status`: ``"converged"`` (every limit met, the objective stopped improving),
+    - `status`: ``"converged"`` (every limit met, the objective stopped improving, or SLSQP
+      met its own test at a point that meets every limit),
       ``"feasible"`` (every limit met, the step budget ran out first) or ``"infeasible"``
       (no design met every limit; the closest is returned).
     - `controls`, `thickness_profile`: the design (control values; h_k/h_r per segment).
@@ -371,10 +375,12 @@ class GradedDesign:
     - `constraints`: per limit, ``{"value", "limit", "margin"}`` (margin = limit - value, in the
       quantity's unit; >= 0 is met).
     - `start`: the sharp values of the starting (uniform) design.
-    - `evaluations`: forward-run equivalents (a sharp run 1, a surrogate gradient
-      `GRADIENT_COST` = 20 each, as measured on the paper mesh by benchmarks/design.py);
-      `iterations` (each one sharp run and, but the last, one gradient); `wall_time_s`.
-    - `history`: per iteration, the objective, the largest violation, the profile, and the
+    - `evaluations`: forward-run equivalents (a sharp run 1; Adam's surrogate gradient
+      `GRADIENT_COST` = 20, SLSQP's surrogate Jacobian `_search.JACOBIAN_COST`, each as
+      measured on the paper mesh by benchmarks/design.py); `iterations`: the points evaluated
+      after the start (each one sharp run and, but a last one the step budget stopped, one
+      gradient or Jacobian; SLSQP's line-search trials count); `wall_time_s`.
+    - `history`: per point, the objective, the largest violation, the profile, and the
       wall times of its sharp run and gradient (``sharp_s``, ``gradient_s``; the first
       iteration's include compiling where the programs were not compiled before).
     """

@@ -209,6 +209,37 @@ def test_a_small_design_meets_its_limits_on_the_sharp_model(small_design, method
     )
 
 
+def test_slsqp_records_a_trial_point_whose_sharp_run_failed_and_never_keeps_it(
+    small_design, monkeypatch
+):
+    """SLSQP's line search may try a profile whose sharp collision fails (seen on the paper's
+    mesh: 'energy balance broken' at one trial point): the point is recorded with how it
+    ended and never kept; a failed start is refused. The failure is forced here on the
+    second point (the programs are the fixture's, compiled)."""
+    params, scales, limit, found = small_design
+    problem = o.graded_problem(params, scales, MESH, profile_points=3)
+    real, calls = o._search._sharp, []
+
+    def failing_second(controls, problem, fail_at=(1,)):
+        values, (code, balance) = real(controls, problem)
+        calls.append(1)
+        if len(calls) - 1 in fail_at:
+            code = jnp.asarray(m.RESULTS.energy_balance_broken.value)
+        return values, (code, balance)
+
+    monkeypatch.setattr(o._search, "_sharp", failing_second)
+    kw = dict(limits={"deflection": limit}, max_beam_mass_ratio=1.0, thickness_bounds=(1.5, 4.0))
+    result = o.design(problem, steps=3, **kw)
+    assert result.history[1]["ended"] == "energy balance broken"
+    assert result.history[1]["violation"] == np.inf
+    assert not np.allclose(result.controls, result.history[1]["controls"])
+    assert result.status in ("converged", "feasible")
+    calls.clear()
+    monkeypatch.setattr(o._search, "_sharp", lambda c, p: failing_second(c, p, fail_at=(0,)))
+    with pytest.raises(m.SimulationError, match="ended with 'energy balance broken'"):
+        o.design(problem, steps=3, **kw)
+
+
 def test_design_refuses_bad_inputs(small_design):
     params, scales, *_ = small_design
     problem = o.graded_problem(params, scales, MESH, profile_points=3)
