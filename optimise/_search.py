@@ -9,10 +9,11 @@ SLSQP needs values and gradients of one smooth problem, so it works on the surro
 smoothed model, smooth peaks; `_graded`'s module doc): the objective and each limit's quantity
 come with their gradients from one reverse-mode Jacobian (`_surrogate_jacobian`: one forward
 run, one backward sweep per row, vmapped). The thickness bounds and the beam mass budget are
-linear and exact. Each limit is a constraint on the surrogate quantity plus an offset, the sharp
-model's value minus the surrogate's at the round's start point, so that the surrogate's bias
-(its smoothed yield and contact make it deflect more or less than the sharp model) does not
-move the limit; `aim` keeps the constraint that fraction inside the limit.
+linear and exact. Each limit is a constraint on the surrogate quantity, `aim` inside the
+limit. The first round leaves the surrogate's bias in (on the paper's case the surrogate
+deflects more than the sharp model, so its limit is conservative); a later round offsets each
+limit by the sharp value minus the surrogate's at its start point. Offsetting the first round
+too was tried: better at K = 6, worse at K = 10 (probe `git show cbd7d9a`).
 
 Every point SLSQP evaluates (its iterates and its line search's trial points) is run on the
 sharp model too, and the bookkeeping of the projected-gradient method decides what is kept
