@@ -19,9 +19,9 @@ Every point SLSQP evaluates (its iterates and its line search's trial points) is
 sharp model too, and the bookkeeping of the projected-gradient method decides what is kept
 (`_graded._Lane`: the best design meeting every sharp limit, else the closest; stopping after
 `patience` points without a `tolerance` gain, or after `steps` points). When a round of SLSQP
-ends (converged, or stopped by its own rules) with points left and its last point outside a
-sharp limit, a new round starts from the best (else closest) design with the offsets measured
-there; at most `ROUNDS` rounds.
+ends (converged, or stopped by its own rules) with points left and the point it ended on
+outside a sharp limit, a new round starts from the best (else closest) design with the
+offsets measured there; at most `ROUNDS` rounds.
 """
 
 from __future__ import annotations
@@ -49,6 +49,7 @@ from ._graded import (
     _refuse_failed,
     _sharp,
     _surrogate_grad,
+    _violation,
     drive,
     quantities,
     smooth_max,
@@ -187,10 +188,12 @@ def run_sqp(lane: _Lane, problem: GradedProblem, stored: int, progress) -> None:
             )
         except _Stop:
             break
-        last = lane.history[-1]
-        if found.success and last["violation"] <= 0.0:
+        # the point SLSQP ended on (its last iterate, not a line search's last trial)
+        end = points.get(tuple(np.asarray(found.x, float).round(14)))
+        outside = end is None or end[0] is None or _violation(end[0], lane.limits) > 0.0
+        if found.success and not outside:
             lane.converged = True  # SLSQP's own test, at a point that meets every limit
-        if lane.done or last["violation"] <= 0.0:
+        if lane.done or not outside:
             break
         x = (lane.best or lane.closest)[0].copy()
     lane.done = True

@@ -240,6 +240,55 @@ def test_slsqp_records_a_trial_point_whose_sharp_run_failed_and_never_keeps_it(
         o.design(problem, steps=3, **kw)
 
 
+def test_slsqp_offsets_its_limits_only_in_a_round_after_one_that_ended_outside_a_limit(
+    small_design, monkeypatch
+):
+    """The first SLSQP round constrains the surrogate as it is; when a round ends with its last
+    point outside a sharp limit, the next starts from the best design with each limit offset
+    by sharp - surrogate there, so that its constraint at that point reads the sharp value.
+    SLSQP is replaced by a stand-in that evaluates the start and, in round 1, the thinnest
+    beam (past the deflection limit); the programs are the fixture's, compiled."""
+    params, scales, limit, found = small_design
+    problem = o.graded_problem(params, scales, MESH, profile_points=3)
+    aim = 0.005
+    seen = []
+
+    class Ended:
+        success = False
+
+    def stand_in(fun, x0, jac, method, bounds, constraints, options):
+        deflection = constraints[1]["fun"]  # [0] is the mass budget
+        seen.append(deflection(x0))
+        ended = Ended()
+        ended.x = np.full_like(x0, 1.5) if len(seen) == 1 else x0  # round 1: past the limit
+        fun(ended.x)
+        return ended
+
+    monkeypatch.setattr(o._search, "minimize", stand_in)
+    result = o.design(
+        problem,
+        limits={"deflection": limit},
+        max_beam_mass_ratio=1.0,
+        thickness_bounds=(1.5, 4.0),
+        aim=aim,
+    )
+    assert len(seen) == 2  # round 2 ended at a point meeting the limit: no round 3
+    assert result.status == "feasible"  # not SLSQP's success
+    assert result.history[1]["violation"] > 0.0  # the thinnest beam
+    start = result.start["deflection"]
+    target = limit * (1 - aim)
+    values, _ = o._search._surrogate_jacobian(
+        jnp.asarray(result.history[0]["controls"]),
+        problem,
+        ("deceleration_10ms", "deflection"),
+        o._graded.stored_checkpoints(problem),
+    )
+    surrogate = float(values[1])
+    assert abs(surrogate - start) > 1e-6 * start  # the two models differ here
+    assert seen[0] == pytest.approx(1 - surrogate / target, rel=1e-12)  # round 1: as it is
+    assert seen[1] == pytest.approx(1 - start / target, rel=1e-12)  # round 2: offset
+
+
 def test_design_refuses_bad_inputs(small_design):
     params, scales, *_ = small_design
     problem = o.graded_problem(params, scales, MESH, profile_points=3)
