@@ -309,24 +309,31 @@ def _surrogate_grad(controls, weights, problem, objective, checkpoints):
     return surrogate_value_and_grad(controls, weights, problem, objective, checkpoints)
 
 
+def reduce_surrogate(values: dict, problem: GradedProblem, objective: str) -> dict:
+    """The surrogate's one number per quantity over the samples of conditions (none: as
+    given): the mean for the objective, a smooth maximum of the worst sample for a limit."""
+    if problem.conditions is None:
+        return values
+    w = problem.conditions.weights
+    return {
+        k: (
+            v
+            if jnp.ndim(v) == 0
+            else jnp.sum(w * v)
+            if k == objective
+            else smooth_max(v, PEAK_WIDTH * jax.lax.stop_gradient(jnp.max(jnp.abs(v))))
+        )
+        for k, v in values.items()
+    }
+
+
 def surrogate_value_and_grad(controls, weights, problem, objective, checkpoints):
     """`_surrogate_grad` unjitted (`design_front` vmaps it over designs)."""
     adjoint = diffrax.RecursiveCheckpointAdjoint(checkpoints)
 
     def weighted(c):
         values, _ = quantities(c, problem, sharp=False, adjoint=adjoint)
-        if problem.conditions is not None:
-            w = problem.conditions.weights
-            values = {
-                k: (
-                    v
-                    if jnp.ndim(v) == 0
-                    else jnp.sum(w * v)
-                    if k == objective
-                    else smooth_max(v, PEAK_WIDTH * jax.lax.stop_gradient(jnp.max(jnp.abs(v))))
-                )
-                for k, v in values.items()
-            }
+        values = reduce_surrogate(values, problem, objective)
         return sum(weights[k] * values[k] for k in weights), values
 
     (_, values), grad = jax.value_and_grad(weighted, has_aux=True)(controls)
@@ -469,8 +476,13 @@ def _checked(problem, minimise, limits, max_beam_mass_ratio, thickness_bounds):
     return limits, low, high, row
 
 
+def failed_codes(codes) -> list[int]:
+    """The result codes among `codes` (one or per sample) that are failures."""
+    return [int(k) for k in np.atleast_1d(np.asarray(codes)) if m.RESULTS(int(k)).failed]
+
+
 def _refuse_failed(codes, problem: GradedProblem, controls) -> None:
-    failed = [int(k) for k in np.atleast_1d(np.asarray(codes)) if m.RESULTS(int(k)).failed]
+    failed = failed_codes(codes)
     if failed:
         raise m.SimulationError(
             f"the collision at thickness profile {np.round(problem.profile(controls), 4)} "

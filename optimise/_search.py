@@ -40,7 +40,6 @@ import msfd_jax as m
 
 from ._graded import (
     METHODS,
-    PEAK_WIDTH,
     GradedDesign,
     GradedProblem,
     _checked,
@@ -51,8 +50,9 @@ from ._graded import (
     _surrogate_grad,
     _violation,
     drive,
+    failed_codes,
     quantities,
-    smooth_max,
+    reduce_surrogate,
     stored_checkpoints,
 )
 
@@ -64,21 +64,13 @@ def _surrogate_jacobian(controls, problem: GradedProblem, names: tuple[str, ...]
     """Surrogate values of `names` (objective first, then the limits) and their Jacobian
     (len(names), K): one forward run, the backward sweeps vmapped over the rows. With
     conditions the objective is the mean over the samples and a limit's quantity the worst
-    sample's, as a smooth maximum (`_graded.surrogate_value_and_grad`'s reduction)."""
+    sample's, as a smooth maximum (`_graded.reduce_surrogate`, as for Adam's gradient)."""
     adjoint = diffrax.RecursiveCheckpointAdjoint(checkpoints)
 
     def rows(c):
         values, _ = quantities(c, problem, sharp=False, adjoint=adjoint)
-        out = []
-        for i, k in enumerate(names):
-            v = values[k]
-            if problem.conditions is not None and jnp.ndim(v) > 0:
-                if i == 0:
-                    v = jnp.sum(problem.conditions.weights * v)
-                else:
-                    v = smooth_max(v, PEAK_WIDTH * jax.lax.stop_gradient(jnp.max(jnp.abs(v))))
-            out.append(v)
-        return jnp.stack(out)
+        values = reduce_surrogate(values, problem, names[0])
+        return jnp.stack([values[k] for k in names])
 
     values, pullback = jax.vjp(rows, controls)
     (jac,) = jax.vmap(pullback)(jnp.eye(len(names), dtype=values.dtype))
@@ -98,16 +90,19 @@ def run_sqp(lane: _Lane, problem: GradedProblem, stored: int, progress) -> None:
     """Drive `lane` (a `_Lane`, its iterate the start) with SLSQP until its rules stop it."""
     names = (lane.minimise, *lane.limits)
     low, high, row, budget = lane.low, lane.high, lane.row, lane.budget
-    limits = np.array([lane.limits[k] for k in names[1:]])
-    scale = [1.0]
-    offsets = np.zeros(len(limits))
+    # each limit's constraint aims `aim` inside it
+    targets = np.array([lane.limits[k] for k in names[1:]]) * (1.0 - lane.aim)
+    offsets = np.zeros(len(targets))
     points: dict[tuple, tuple] = {}  # every point evaluated: (sharp values or None, values, jac)
-    it = [0]
+    scale = 1.0  # the objective's surrogate value at the start
+
+    def key(x):
+        return tuple(np.asarray(x, float).round(14))
 
     def evaluate(x):
-        key = tuple(np.asarray(x, float).round(14))
-        if key in points:
-            return points[key][1:]
+        nonlocal scale
+        if key(x) in points:
+            return points[key(x)][1:]
         if lane.done:
             raise _Stop
         c = np.clip(np.asarray(x, float), low, high)  # SLSQP may step a rounding outside
@@ -117,15 +112,15 @@ def run_sqp(lane: _Lane, problem: GradedProblem, stored: int, progress) -> None:
         raw, (codes, _) = _sharp(controls, problem)
         codes = np.asarray(codes)
         sharp_s = time.perf_counter() - tick
-        failed = [int(k) for k in np.atleast_1d(codes) if m.RESULTS(int(k)).failed]
-        if failed and it[0] == 0:
+        failed = failed_codes(codes)
+        start = not lane.history
+        if failed and start:
             _refuse_failed(codes, problem, controls)
         if failed:  # a trial point whose sharp collision failed: never kept, never closest
             raw = {k: np.full(np.shape(v), np.inf) for k, v in raw.items()}
-        lane.observe(it[0], raw, sharp_s, progress)
+        lane.observe(len(lane.history), raw, sharp_s, progress)
         if failed:
             lane.history[-1]["ended"] = m.RESULTS(failed[0]).status
-        it[0] += 1
         if lane.done:
             raise _Stop
         tick = time.perf_counter()
@@ -137,36 +132,35 @@ def run_sqp(lane: _Lane, problem: GradedProblem, stored: int, progress) -> None:
             lane.history[-1]["ended"] = "surrogate not finite"
             raise _Stop
         sharp = None if failed else _reduce(raw, problem, lane.minimise, True)
-        if scale[0] == 1.0:
-            scale[0] = abs(float(values[0])) or 1.0
-        points[key] = (sharp, values, jac)
+        if start:
+            scale = abs(float(values[0])) or 1.0
+        points[key(x)] = (sharp, values, jac)
         return values, jac
 
     def start_round(x):
         """Evaluate the round's start and set the limits' offsets there (sharp - surrogate)."""
         values, _ = evaluate(x)
-        sharp = points[tuple(np.asarray(x, float).round(14))][0]
+        sharp = points[key(x)][0]
         if sharp is not None:
             offsets[:] = [float(sharp[k]) - values[i + 1] for i, k in enumerate(names[1:])]
 
     def objective(x):
-        return float(evaluate(x)[0][0]) / scale[0]
+        return float(evaluate(x)[0][0]) / scale
 
     def objective_grad(x):
-        return evaluate(x)[1][0] / scale[0]
+        return evaluate(x)[1][0] / scale
 
     constraints = [{"type": "ineq", "fun": lambda x: budget - row @ x, "jac": lambda x: -row}]
     if budget is None:
         constraints = []
-    for i in range(len(limits)):
-        target = lambda i=i: limits[i] * (1.0 - lane.aim)  # noqa: E731
+    for i in range(len(targets)):
 
-        def g(x, i=i, target=target):
+        def g(x, i=i):
             values, _ = evaluate(x)
-            return 1.0 - (values[i + 1] + offsets[i]) / target()
+            return 1.0 - (values[i + 1] + offsets[i]) / targets[i]
 
-        def g_jac(x, i=i, target=target):
-            return -evaluate(x)[1][i + 1] / target()
+        def g_jac(x, i=i):
+            return -evaluate(x)[1][i + 1] / targets[i]
 
         constraints.append({"type": "ineq", "fun": g, "jac": g_jac})
 
@@ -189,14 +183,13 @@ def run_sqp(lane: _Lane, problem: GradedProblem, stored: int, progress) -> None:
         except _Stop:
             break
         # the point SLSQP ended on (its last iterate, not a line search's last trial)
-        end = points.get(tuple(np.asarray(found.x, float).round(14)))
+        end = points.get(key(found.x))
         outside = end is None or end[0] is None or _violation(end[0], lane.limits) > 0.0
         if found.success and not outside:
             lane.converged = True  # SLSQP's own test, at a point that meets every limit
         if lane.done or not outside:
             break
         x = (lane.best or lane.closest)[0].copy()
-    lane.done = True
 
 
 def design(
@@ -224,7 +217,7 @@ def design(
 
     Starts from the uniform beam of the problem's ``thickness_ratio`` (or `start`, control
     values), clipped into the bounds and the budget. `method`: ``"slsqp"`` (scipy's SLSQP on
-    the surrogate, each point it evaluates checked on the sharp model; `optimise._sqp`) or
+    the surrogate, each point it evaluates checked on the sharp model; `run_sqp`) or
     ``"adam"`` (the augmented Lagrangian around projected Adam steps, as `design_front` runs
     it; `learning_rate` and `penalty` are its own). `steps`: at most this many points after
     the start, each a sharp run (values, limits) and one reverse-mode gradient of the
