@@ -24,9 +24,9 @@
 # impact conditions.
 #
 # Everything runs on a coarse mesh (6 ring segments, 8 + 2 beam segments) and a short run
-# (t_max = 3, not until settled, so part of K0 is still kinetic at the end) so that the
-# notebook executes in the test suite; the same calls work on `m.Mesh()` and `m.Settings()`
-# (see `msfd tune --help`).
+# (t_max = 1.5, not until settled, so part of K0 is still kinetic at the end) so that the
+# notebook executes in the test suite (on the problems tests/test_optimise.py compiles); the
+# same calls work on `m.Mesh()` and `m.Settings()` (see `msfd tune --help`).
 
 # %%
 import time
@@ -42,27 +42,26 @@ import msfd_jax as m  # noqa: E402
 import optimise as o  # noqa: E402
 
 # %% [markdown]
-# ## One problem, three impact conditions
+# ## Two problems: the showcase alone, and two impact conditions
 #
 # A `Problem` fixes what does not change while the design does: the collision, the mesh, the
 # integration settings (with a step bound `max_steps` covering the whole design box). With
 # `Conditions` it evaluates several impact conditions (ring velocity v0, block mass ratio g)
 # in one program, `jax.vmap`ped over the samples, and every objective sees the expected
-# partition, the weighted mean of the samples' fractions of K0.
+# partition, the weighted mean of the samples' fractions of K0 (equal weights here; the
+# weights are arrays, so other weights compile nothing new).
 #
-# The weights are arrays like everything else: weights (1, 0, 0) give the paper's showcase
-# alone (v0 = 0.82, g = 10), equal weights the expected split, and switching between them
-# compiles nothing. The time step is held fixed (`dt`) so that finite differences see the same
-# discrete map as the derivatives (msfd_jax keeps the stable step out of the derivative).
+# `single` is the paper's showcase alone (v0 = 0.82, g = 10); `robust` pairs a slow light
+# block with a fast heavy one. The time step is held fixed (`dt`) so that finite differences
+# see the same discrete map as the derivatives (msfd_jax keeps the stable step out of the
+# derivative).
 
 # %%
 mesh = m.Mesh(ring_segments=6, beam_contact_segments=8, beam_outer_segments=2)
-settings = m.Settings(t_max=3.0, dt=2.0e-4, history_points=31, shape_times=(0.5,))
+settings = m.Settings(t_max=1.5, dt=2.0e-4, history_points=31, shape_times=(0.5,))
 box = o.default_box(o.Design(thickness_ratio=2.5))  # h_b/h_r in [0.5, 5]
-samples = dict(velocity=[0.82, 0.6, 1.0], mass_ratio=[10.0, 5.0, 20.0])
-showcase = o.Conditions(**samples, weights=[1.0, 0.0, 0.0])
-expected = o.Conditions(**samples)  # equal weights
-single = o.make_problem(m.CollisionParams(), mesh, settings, box, conditions=showcase)
+expected = o.Conditions(velocity=[0.7, 1.0], mass_ratio=[5.0, 20.0])  # equal weights
+single = o.make_problem(m.CollisionParams(), mesh, settings, box)
 robust = o.make_problem(m.CollisionParams(), mesh, settings, box, conditions=expected)
 print("max_steps", single.settings.max_steps, "diffrax steps of", settings.substeps)
 
@@ -168,8 +167,8 @@ print(far.status, "-", far.message)
 # %% [markdown]
 # ## Robust tuning: the expected split over impact conditions
 #
-# A guardrail is hit at many speeds by many vehicles. With equal weights over the three
-# samples (v0, g) = (0.82, 10), (0.6, 5), (1.0, 20), the same call tunes the *expected*
+# A guardrail is hit at many speeds by many vehicles. With equal weights over the two
+# samples (v0, g) = (0.7, 5), (1.0, 20), the same call tunes the *expected*
 # beam share; the sharp model's check at the found design also gives each sample's share and
 # their spread.
 
