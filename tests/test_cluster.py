@@ -80,6 +80,33 @@ def test_cluster_sweep_equals_in_process(client, cache, reference, tmp_path):
     assert_same_rows(back, reference)
 
 
+def test_the_first_task_primes_the_compile_cache_before_the_others_start(client, cache):
+    """Workers that meet a program at the same moment all miss the persistent cache and all
+    compile it (this module's first sweep did: its two workers compiled one exported program
+    at once, 16.7 CPU-s). With a compile cache, the first task runs alone; the others start
+    after it has finished, on both workers."""
+    import time
+
+    def solve(columns):  # a task that says when it ran (cloudpickled by value)
+        start = time.time()
+        time.sleep(0.3)
+        n = len(columns["x"])
+        return {"start": np.full(n, start), "end": np.full(n, time.time())}
+
+    ran = {}
+
+    def on_rows(rows, outputs):
+        ran[int(rows[0])] = (float(outputs["start"][0]), float(outputs["end"][0]))
+
+    rows = np.arange(6)
+    _cluster.solve_on_cluster(
+        client, solve, {"x": rows.astype(float)}, rows, 2, {}, on_rows, compile_cache=cache
+    )
+    assert sorted(ran) == [0, 2, 4]
+    primed = ran[0][1]
+    assert all(start >= primed for first_row, (start, _) in ran.items() if first_row != 0), ran
+
+
 def test_interrupted_cluster_sweep_resumes_computing_only_the_missing(
     client, cache, reference, tmp_path
 ):

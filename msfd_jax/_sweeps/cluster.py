@@ -8,7 +8,10 @@ into tasks of `task_size`, submits them, and hands each task's rows to `on_rows`
 finishes. A task is ``solve_collisions`` on its rows, the same unit of work as an in-process
 sweep, so the rows are the in-process ones. Dask reruns the tasks of a lost worker (up to
 ``distributed.scheduler.allowed-failures`` times). Workers enable JAX's persistent compile
-cache in the directory given, so only the first worker to meet a program compiles it.
+cache in the directory given, so only the first worker to meet a program compiles it: with a
+cache, the first task runs alone and the others are submitted when it has finished, since
+workers that meet a program at the same moment all miss the cache and all compile it (seen
+in the suite: two workers compiling one exported program at once, 16.7 CPU-s).
 
 dask.distributed is an optional extra (``pip install 'msfd-jax[cluster]'``), imported here
 only when a cluster is used.
@@ -114,17 +117,29 @@ def solve_on_cluster(
     Each task calls ``solve(batch_columns, **kwargs)`` in a worker; `on_rows(rows, outputs)`
     gets each task's positions (in `columns`) and output columns as the task finishes, in
     the order tasks finish. An exception in a task or in `on_rows` cancels the tasks left.
+    With a `compile_cache`, the first task runs alone and primes the cache: the other tasks
+    are submitted when it has finished, so their workers load its programs (the module's
+    docstring).
     """
     distributed = import_distributed()
     batches = [rows[s : s + task_size] for s in range(0, len(rows), task_size)]
     cache = None if compile_cache is None else str(compile_cache)
     futures = {}
-    for batch in batches:
+
+    def submit(batch):
         part = {k: np.asarray(v)[batch] for k, v in columns.items()}
         future = client.submit(_task, solve, part, kwargs, cache, pure=False)
         futures[future] = batch
+        return future
+
+    prime = cache is not None and len(batches) > 1
+    first, rest = (batches[:1], batches[1:]) if prime else (batches, [])
     try:
-        for future, outputs in distributed.as_completed(futures, with_results=True):
+        finished = distributed.as_completed([submit(b) for b in first], with_results=True)
+        for future, outputs in finished:
+            if rest:  # the first task has primed the cache: the others now
+                finished.update([submit(b) for b in rest])
+                rest = []
             on_rows(futures[future], outputs)
             future.release()
     finally:
