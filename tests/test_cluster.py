@@ -84,7 +84,7 @@ def test_the_first_task_primes_the_compile_cache_before_the_others_start(client,
     """Workers that meet a program at the same moment all miss the persistent cache and all
     compile it (this module's first sweep did: its two workers compiled one exported program
     at once, 16.7 CPU-s). With a compile cache, the first task runs alone; the others start
-    after it has finished, on both workers."""
+    after it has finished."""
     import time
 
     def solve(columns):  # a task that says when it ran (cloudpickled by value)
