@@ -101,8 +101,9 @@ def run_sqp(lane: _Lane, problem: GradedProblem, stored: int, progress) -> None:
 
     def evaluate(x):
         nonlocal scale
-        if key(x) in points:
-            return points[key(x)][1:]
+        point = key(x)
+        if point in points:
+            return points[point][1:]
         if lane.done:
             raise _Stop
         c = np.clip(np.asarray(x, float), low, high)  # SLSQP may step a rounding outside
@@ -134,7 +135,7 @@ def run_sqp(lane: _Lane, problem: GradedProblem, stored: int, progress) -> None:
         sharp = None if failed else _reduce(raw, problem, lane.minimise, True)
         if start:
             scale = abs(float(values[0])) or 1.0
-        points[key(x)] = (sharp, values, jac)
+        points[point] = (sharp, values, jac)
         return values, jac
 
     def start_round(x):

@@ -10,6 +10,7 @@ import csv
 import json
 import os
 import signal
+import time
 
 import numpy as np
 import pytest
@@ -85,7 +86,6 @@ def test_the_first_task_primes_the_compile_cache_before_the_others_start(client,
     compile it (this module's first sweep did: its two workers compiled one exported program
     at once, 16.7 CPU-s). With a compile cache, the first task runs alone; the others start
     after it has finished."""
-    import time
 
     def solve(columns):  # a task that says when it ran (cloudpickled by value)
         start = time.time()
