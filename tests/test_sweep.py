@@ -397,6 +397,35 @@ def test_a_warm_run_keeps_the_cold_run_s_tail(tmp_path, monkeypatch):
             np.testing.assert_array_equal(np.asarray(warm[key]), np.asarray(cold[key]), key)
 
 
+def test_a_second_sweep_in_a_process_keeps_the_first_one_s_tail(monkeypatch):
+    """Made again in one process, a sweep's programs come from jit's own cache in ~0 s (or
+    from JAX's persistent cache, for the trace and the load); the payback rule still compares
+    with what making them cost (`_queue._MAKE_S`), so a second sweep of the same shape
+    compiles no tail program the first one kept from (notebooks/reproduce.py: its Fig. 16
+    sweep, the shape of Fig. 10's, compiled three tail sizes, 10 s, for a run of 2.5 s)."""
+    from msfd_jax._sweeps import queue as _queue
+
+    costs = []  # the cost the rule compares with, at each of its decisions
+    compact = _queue._SweepQueue.compact
+
+    def compact_seen(self, slots):
+        costs.append(self.make_times[0])
+        return compact(self, slots)
+
+    monkeypatch.setattr(_queue._SweepQueue, "compact", compact_seen)
+
+    def run():
+        return sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH,
+                     workers=1)  # fmt: skip
+
+    first = run()
+    before, costs[:] = list(costs), []
+    second = run()
+    assert before and costs and min(costs) >= max(before) > 0.1
+    assert second.timing["compactions"] == first.timing["compactions"]
+    assert second.timing["compile_s"] < first.timing["compile_s"] + 0.5
+
+
 def test_the_default_slots_follow_the_platform(monkeypatch):
     """A sweep not told its slots takes 32 per worker on a CPU and 8192 on a GPU."""
     from msfd_jax._sweeps import queue as _queue

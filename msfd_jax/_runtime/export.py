@@ -285,6 +285,12 @@ def _dynamic(args: tuple):
     return dynamic, rebuild, (str(treedef), repr(statics), repr(avals))
 
 
+def signature(args: tuple) -> tuple[str, str, str]:
+    """What a jitted function's program depends on in `args`: their structure, static values
+    and array shapes and dtypes (a hashable key within a process)."""
+    return _dynamic(args)[2]
+
+
 def _key_text(name: str, signature: tuple) -> str | None:
     if any(" at 0x" in part for part in signature):  # a repr with an address: no stable key
         return None
