@@ -423,7 +423,8 @@ def test_a_second_sweep_in_a_process_keeps_the_first_one_s_tail(monkeypatch):
     second = run()
     assert before and costs and min(costs) >= max(before) > 0.1
     assert second.timing["compactions"] == first.timing["compactions"]
-    assert second.timing["compile_s"] < first.timing["compile_s"] + 0.5
+    # every program of the second from jit's cache (a new tail size compiles for seconds)
+    assert second.timing["compile_s"] < 1.0
 
 
 def test_the_default_slots_follow_the_platform(monkeypatch):

@@ -412,7 +412,7 @@ class _SweepQueue:
                 # else the time taken with what a persistent-cache hit saved, never less than
                 # this process measured for the same programs before (`_MAKE_S`)
                 took = self.compile_times[-1] + getattr(_SAVED, "s", 0.0) - saved
-                stored = all(p.source == "loaded" for p in self.programs[size])
+                stored = all(program.source == "loaded" for program in self.programs[size])
                 kind = _export.signature((self.segment, *refill_args))  # shapes, statics
                 known = _MAKE_S.get(kind, 0.0)
                 cost = sum(made) if stored and None not in made else max(took, known)
