@@ -26,16 +26,28 @@ from msfd_jax._sweeps import sweep as _sweep
 
 @pytest.fixture
 def dense():
-    """`dense(True)`: from then on every block is evaluated (`SKIP_FAR_BLOCKS` off); programs
-    traced before are released first (their cache key does not hold the flag), and again
-    after the test."""
+    """`dense(True)`: from then on every block is evaluated (`SKIP_FAR_BLOCKS` off, read when a
+    program is traced). jit's cache key does not hold that flag, so the dense programs are
+    traced under another value of a setting it does hold and that changes no arithmetic:
+    rank promotion "warn" instead of the suite's "raise" (an implicit promotion would then
+    warn, and the suite's warnings are errors). A pruned program is never served for a dense
+    call or the reverse, and the programs traced before stay cached for the later tests
+    (clearing jit's caches made them trace again)."""
+    suite = jax.config.jax_numpy_rank_promotion
+    other = "allow" if suite == "warn" else "warn"
 
     def use(flag: bool):
-        jax.clear_caches()
         _pruning.SKIP_FAR_BLOCKS = not flag
+        jax.config.update("jax_numpy_rank_promotion", other if flag else suite)
+        # a program traced under the other value sees the flag as it is now
+        assert bool(_SKIPS_FAR_BLOCKS()) is (not flag)
 
     yield use
     use(False)
+
+
+# what a jitted program saw of the flag when it was traced
+_SKIPS_FAR_BLOCKS = jax.jit(lambda: jnp.asarray(_pruning.SKIP_FAR_BLOCKS))
 
 
 def test_block_shapes():
