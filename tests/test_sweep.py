@@ -320,6 +320,28 @@ def test_an_error_in_a_worker_thread_reaches_the_caller():
               on_rows=fail)  # fmt: skip
 
 
+def _tail_sweep():
+    """ROWS20 on the small mesh through one worker's slots (the tail tests' sweep)."""
+    return sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH,
+                 workers=1)  # fmt: skip
+
+
+def _tail_rule_costs(monkeypatch) -> list:
+    """At each decision of the tail rule from now on, (the cost it compares with, the
+    seconds the sweep spent making its first programs), appended to the list returned."""
+    from msfd_jax._sweeps import queue as _queue
+
+    costs = []
+    compact = _queue._SweepQueue.compact
+
+    def compact_seen(self, slots):
+        costs.append((self.make_times[0], self.compile_times[0]))
+        return compact(self, slots)
+
+    monkeypatch.setattr(_queue._SweepQueue, "compact", compact_seen)
+    return costs
+
+
 def test_the_scalar_tail_gives_the_same_rows(monkeypatch):
     """The tail's last collisions move to 4, 2 and 1 slots (`_queue.TAIL_SLOTS`): their rows
     equal those of a tail kept at 16 slots, every column (a collision's arithmetic does not
@@ -330,17 +352,13 @@ def test_the_scalar_tail_gives_the_same_rows(monkeypatch):
     assert _queue._tail_size(3, 16) == 4 and _queue._tail_size(1, 4) == 1
     assert _queue._tail_size(5, 16) == 16 and _queue._tail_size(9, 64) == 16
 
-    def run():
-        return sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH,
-                     workers=1)  # fmt: skip
-
     monkeypatch.setattr(_queue, "TAIL_PAYBACK", 1e9)  # no compilation ever pays
-    assert run().timing["compactions"] == 0
+    assert _tail_sweep().timing["compactions"] == 0
     monkeypatch.setattr(_queue, "TAIL_PAYBACK", 0.0)  # every one does
-    scalar = run()
+    scalar = _tail_sweep()
     assert scalar.timing["compactions"] >= 1
     monkeypatch.setattr(_queue, "TAIL_SLOTS", 0)  # the tail stays at MIN_SLOTS
-    wide = run()
+    wide = _tail_sweep()
     assert wide.timing["compactions"] == 0
     for key in OUTPUTS:
         if key != "wall_time_s":
@@ -365,22 +383,10 @@ def test_a_warm_run_keeps_the_cold_run_s_tail(tmp_path, monkeypatch):
         return program
 
     monkeypatch.setattr(_queue._export, "compile_program", seen)
-    costs = []  # (the cost the rule compares with, the seconds this run spent compiling)
-    compact = _queue._SweepQueue.compact
-
-    def compact_seen(self, slots):
-        costs.append((self.make_times[0], self.compile_times[0]))
-        return compact(self, slots)
-
-    monkeypatch.setattr(_queue._SweepQueue, "compact", compact_seen)
-
-    def run():
-        return sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH,
-                     workers=1)  # fmt: skip
-
-    cold = run()
+    costs = _tail_rule_costs(monkeypatch)
+    cold = _tail_sweep()
     cold_made, made[:], costs[:] = list(made), [], []
-    warm = run()
+    warm = _tail_sweep()
     queue_programs = [m for m in made if m[0].startswith("queue_")]
     assert queue_programs and all(source == "loaded" for _, source, _ in queue_programs)
     # each loaded program knows what the cold run paid to make it, and the rule compares
@@ -403,25 +409,12 @@ def test_a_second_sweep_in_a_process_keeps_the_first_one_s_tail(monkeypatch):
     with what making them cost (`_queue._MAKE_S`), so a second sweep of the same shape
     compiles no tail program the first one kept from (notebooks/reproduce.py: its Fig. 16
     sweep, the shape of Fig. 10's, compiled three tail sizes, 10 s, for a run of 2.5 s)."""
-    from msfd_jax._sweeps import queue as _queue
 
-    costs = []  # the cost the rule compares with, at each of its decisions
-    compact = _queue._SweepQueue.compact
-
-    def compact_seen(self, slots):
-        costs.append(self.make_times[0])
-        return compact(self, slots)
-
-    monkeypatch.setattr(_queue._SweepQueue, "compact", compact_seen)
-
-    def run():
-        return sweep(ROWS20, SMALL_MESH, SHORT, chunk_size=CHUNK, contact_smoothing=SMOOTH,
-                     workers=1)  # fmt: skip
-
-    first = run()
-    before, costs[:] = list(costs), []
-    second = run()
-    assert before and costs and min(costs) >= max(before) > 0.1
+    costs = _tail_rule_costs(monkeypatch)
+    first = _tail_sweep()
+    before, costs[:] = [rule for rule, _ in costs], []
+    second = _tail_sweep()
+    assert before and costs and min(rule for rule, _ in costs) >= max(before) > 0.1
     assert second.timing["compactions"] == first.timing["compactions"]
     # every program of the second from jit's cache (a new tail size compiles for seconds)
     assert second.timing["compile_s"] < 1.0
