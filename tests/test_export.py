@@ -204,7 +204,6 @@ def test_a_sweep_stores_its_programs_and_a_new_process_loads_them(tmp_path):
     names = {name for name, _, _ in first["sources"]}
     assert names == {
         "critical_chunk",
-        "queue_start",
         "queue_segment",
         "queue_report",
         "queue_refill",

@@ -420,6 +420,61 @@ def test_a_second_sweep_in_a_process_keeps_the_first_one_s_tail(monkeypatch):
     assert second.timing["compile_s"] < 1.0
 
 
+def test_a_retry_in_the_tail_makes_the_refill_program_it_needs(monkeypatch):
+    """Once the queue is empty the tail's smaller programs leave the refill program out (a
+    compilation of seconds that only a retry needs); a collision solved again after the tail
+    has moved makes it then. Forced here: the first collision reported after a compaction is
+    asked to be solved again (as an open energy balance would ask). Its rows equal those of
+    the same sweep, the same collision solved again, that never moves its tail."""
+    from msfd_jax._collision import attempts as _attempts
+    from msfd_jax._sweeps import queue as _queue
+
+    forced, seen, late = {}, {}, []  # forced: {row: the attempt after which it goes again}
+    take, needs_retry, compact = (
+        _attempts.Attempts.take,
+        _attempts.needs_retry,
+        _queue._SweepQueue.compact,
+    )
+    programs_for = _queue._SweepQueue.programs_for
+
+    def take_seen(self, rows, part, attempts):
+        seen["rows"], seen["attempts"] = np.asarray(rows), np.asarray(attempts)
+        if seen.get("compacted") and not forced:
+            forced[int(rows[0])] = int(np.broadcast_to(attempts, np.shape(rows))[0])
+        return take(self, rows, part, attempts)
+
+    def retry_forced(result, dt, dt_critical, error, attempt):
+        again = [forced.get(int(r)) == int(a) for r, a in zip(seen["rows"], attempt, strict=True)]
+        return needs_retry(result, dt, dt_critical, error, attempt) | np.asarray(again)
+
+    def compact_seen(self, slots):
+        compact(self, slots)
+        seen["compacted"] = seen.get("compacted") or slots.compactions > 0
+
+    def programs_seen(self, size, state, refill=True):
+        have = self.programs.get(size)
+        if refill and have is not None and have[2] is None:
+            late.append(size)
+        return programs_for(self, size, state, refill)
+
+    monkeypatch.setattr(_attempts.Attempts, "take", take_seen)
+    monkeypatch.setattr(_attempts, "needs_retry", retry_forced)
+    monkeypatch.setattr(_queue._SweepQueue, "compact", compact_seen)
+    monkeypatch.setattr(_queue._SweepQueue, "programs_for", programs_seen)
+    monkeypatch.setattr(_queue, "TAIL_PAYBACK", 0.0)
+    moved = _tail_sweep()
+    ((row, attempt),) = forced.items()
+    assert moved.timing["compactions"] >= 1 and late
+    assert int(np.asarray(moved["retries"])[row]) == attempt + 1
+    seen.clear()  # the same collision solved again, from the start on (`forced` kept)
+    monkeypatch.setattr(_queue, "TAIL_PAYBACK", 1e9)
+    kept = _tail_sweep()
+    assert kept.timing["compactions"] == 0
+    for key in OUTPUTS:
+        if key != "wall_time_s":
+            np.testing.assert_array_equal(np.asarray(moved[key]), np.asarray(kept[key]), key)
+
+
 def test_the_default_slots_follow_the_platform(monkeypatch):
     """A sweep not told its slots takes 32 per worker on a CPU and 8192 on a GPU."""
     from msfd_jax._sweeps import queue as _queue

@@ -4,9 +4,10 @@ No batch waits for its slowest collision: the slots advance together for a segme
 `segment` diffrax steps (one compiled program, `_segment`), then every slot whose collision
 has stopped hands in its outputs and takes the next collision of the queue (`_refill`, also
 compiled: the new collisions' scenes, clocks and initial states are built on the device and
-merged into the freed slots). The host loop runs once per segment, never per time step. A
-collision's steps, stopping rule and results do not depend on which slot, batch or segment
-it ran in (tests/test_engine.py: a batch of N equals N single runs).
+merged into the freed slots; the first collisions start the same way, in blank slots, so a
+sweep compiles no program of its own to start them). The host loop runs once per segment,
+never per time step. A collision's steps, stopping rule and results do not depend on which
+slot, batch or segment it ran in (tests/test_engine.py: a batch of N equals N single runs).
 """
 
 from __future__ import annotations
@@ -235,7 +236,8 @@ def run_queue(
     The tail: once the queue is empty and at most half of a worker's slots still run (on a
     GPU: a quarter, `_tail_size_gpu`), their collisions move into a program of fewer slots
     (the next power of two, down to `TAIL_SLOTS`, on a GPU `GPU_TAIL_FLOOR`; compiled when
-    first needed, its compilation counted as compile time): the tail of a sweep no longer
+    first needed, its compilation counted as compile time; its refill program only when a
+    collision handed back in the tail needs it): the tail of a sweep no longer
     pays for stopped slots. A collision's result does not depend on its slot or the slot
     count (tests/test_sweep.py).
     """
@@ -297,6 +299,7 @@ class _SweepQueue:
         self.lock = threading.Lock()
         self.on_cpu = platform() == "cpu"  # which tail rule (`_tail_size`, `_tail_size_gpu`)
         self.programs: dict[int, tuple] = {}
+        self.blanks: dict[int, tuple] = {}  # `blank`'s zeros, one per slot count
         self.compiling = threading.Lock()
         self.compile_times: list[float] = []  # the first: the programs of the starting size
         self.make_times: list[float] = []  # the seconds each size's programs took to make
@@ -384,41 +387,66 @@ class _SweepQueue:
         retried = zip(rows.tolist(), (attempts + 1).tolist(), strict=True)
         self.pending.extendleft(list(retried)[::-1])
 
-    def programs_for(self, size: int, state) -> tuple:
+    def programs_for(self, size: int, state, refill: bool = True) -> tuple:
         """The segment, report and refill programs for `size` slots, compiled ahead of time
-        (once; a thread that needs a size another is compiling waits for it)."""
+        (once; a thread that needs a size another is compiling waits for it). `refill` False
+        (a tail's smaller size: the queue is empty) leaves the refill program to its first use,
+        a retry handed back in the tail (`refill`); None until then."""
         with self.compiling:
-            if size not in self.programs:
-                tick = time.perf_counter()
-                saved = getattr(_SAVED, "s", 0.0)
-                flat, clock, y = state
-                zeros = np.zeros(size, np.int64)
-                p, d, steps, factor = self.batch(zeros, zeros, size)
-                # through the store of serialized programs when it is on (the CLI's): a new
-                # process then loads them instead of tracing diffrax's loop again (`_export`)
-                refill_args = (flat, clock, y, jnp.zeros(size, bool), p, d, self.mesh,
-                               self.smoothing, self.settings, steps, factor)  # fmt: skip
-                self.programs[size] = (
-                    _export.compile_program(
-                        _segment, flat, clock, y, self.settings, self.segment, name="queue_segment"
-                    ),
-                    _export.compile_program(_report, flat, clock, y, name="queue_report"),
-                    _export.compile_program(_refill, *refill_args, name="queue_refill"),
-                )
+            have = self.programs.get(size)
+            if have is not None and (have[2] is not None or not refill):
+                return have
+            tick = time.perf_counter()
+            saved = getattr(_SAVED, "s", 0.0)
+            flat, clock, y = state
+            zeros = np.zeros(size, np.int64)
+            p, d, steps, factor = self.batch(zeros, zeros, size)
+            # through the store of serialized programs when it is on (the CLI's): a new
+            # process then loads them instead of tracing diffrax's loop again (`_export`)
+            refill_args = (flat, clock, y, jnp.zeros(size, bool), p, d, self.mesh,
+                           self.smoothing, self.settings, steps, factor)  # fmt: skip
+            if have is not None:  # a tail size's refill program, at its first use
+                late = _export.compile_program(_refill, *refill_args, name="queue_refill")
+                self.programs[size] = (*have[:2], late)
                 self.compile_times.append(time.perf_counter() - tick)
-                made = [program.make_s for program in self.programs[size]]
-                # what a new size costs: the first size's making, recorded by the process that
-                # made it when it was loaded here from the store (its load took milliseconds);
-                # else the time taken with what a persistent-cache hit saved, never less than
-                # this process measured for the same programs before (`_MAKE_S`)
-                took = self.compile_times[-1] + getattr(_SAVED, "s", 0.0) - saved
-                stored = all(program.source == "loaded" for program in self.programs[size])
-                kind = _export.signature((self.segment, *refill_args))  # shapes, statics
-                known = _MAKE_S.get(kind, 0.0)
-                cost = sum(made) if stored and None not in made else max(took, known)
-                _MAKE_S[kind] = max(cost, known)
-                self.make_times.append(cost)
+                return self.programs[size]
+            self.programs[size] = (
+                _export.compile_program(
+                    _segment, flat, clock, y, self.settings, self.segment, name="queue_segment"
+                ),
+                _export.compile_program(_report, flat, clock, y, name="queue_report"),
+                _export.compile_program(_refill, *refill_args, name="queue_refill")
+                if refill
+                else None,
+            )
+            self.compile_times.append(time.perf_counter() - tick)
+            made = [program.make_s for program in self.programs[size] if program is not None]
+            # what a new size costs: the first size's making, recorded by the process that
+            # made it when it was loaded here from the store (its load took milliseconds);
+            # else the time taken with what a persistent-cache hit saved, never less than
+            # this process measured for the same programs before (`_MAKE_S`)
+            took = self.compile_times[-1] + getattr(_SAVED, "s", 0.0) - saved
+            stored = all(program.source == "loaded" for program in self.programs[size] if program)
+            kind = _export.signature((self.segment, refill, *refill_args))  # shapes, statics
+            known = _MAKE_S.get(kind, 0.0)
+            cost = sum(made) if stored and None not in made else max(took, known)
+            _MAKE_S[kind] = max(cost, known)
+            self.make_times.append(cost)
             return self.programs[size]
+
+    def blank(self, size: int, p, d, steps, factor) -> tuple:
+        """Zeros of the shapes and types of `size` started slots (flat scene, clock, state):
+        what the refill program takes in when it starts every slot (`fill_slots`)."""
+        if size not in self.blanks:
+            shapes = eqx.filter_eval_shape(
+                _start, p, d, self.mesh, self.smoothing, self.settings, steps, factor
+            )
+            zero = lambda s: np.zeros(s.shape, s.dtype)  # noqa: E731  (no program to make)
+            is_shape = lambda x: isinstance(x, jax.ShapeDtypeStruct)  # noqa: E731
+            self.blanks[size] = jax.tree_util.tree_map(
+                lambda x: zero(x) if is_shape(x) else x, shapes, is_leaf=is_shape
+            )
+        return self.blanks[size]
 
     def fill_slots(self, size: int) -> _Slots | None:
         """A worker's `size` slots with the next collisions of the queue started in them (slots
@@ -427,8 +455,12 @@ class _SweepQueue:
         if not rows:
             return None
         p, d, steps, factor = self.batch(rows, attempts, size)
-        flat, clock, y = _export.call(_start, p, d, self.mesh, self.smoothing, self.settings,
-                                      steps, factor, name="queue_start")  # fmt: skip
+        # started by the refill program, every slot taken, from blank slots (zeros of the
+        # state's shapes): a sweep compiles no program of its own to start its slots
+        blank = self.blank(size, p, d, steps, factor)
+        refill = self.programs_for(size, blank)[2]
+        flat, clock, y = refill(*blank, jnp.ones(size, bool), p, d, self.mesh, self.smoothing,
+                                self.settings, steps, factor)  # fmt: skip
         row, attempt = np.full(size, -1), np.zeros(size, np.int64)
         row[: len(rows)], attempt[: len(rows)] = rows, attempts
         if len(rows) < size:
@@ -498,6 +530,8 @@ class _SweepQueue:
         new_attempts = np.zeros(size, np.int64)
         new_attempts[fill] = attempts
         p, d, steps, factor = self.batch(new_rows, new_attempts, size)
+        if slots.programs[2] is None:  # a tail size's: compiled at its first use
+            slots.programs = self.programs_for(size, slots.state)
         slots.state = slots.programs[2](
             *slots.state, jnp.asarray(take_mask), p, d, self.mesh, self.smoothing, self.settings,
             steps, factor,
@@ -526,7 +560,7 @@ class _SweepQueue:
         slots.busy = np.where(pad, 0.0, slots.busy[idx])
         slots.attempt = slots.attempt[idx]
         slots.compactions += 1
-        slots.programs = self.programs_for(smaller, slots.state)
+        slots.programs = self.programs_for(smaller, slots.state, refill=False)
 
 
 def _tail_size(running: int, size: int) -> int:
