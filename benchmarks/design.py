@@ -626,6 +626,17 @@ def loop_costs(result) -> list[str]:
     ]
 
 
+def profile_text(result) -> str:
+    """A found design's profile (per segment) and its control values, one line."""
+    return (
+        "Profile h/h_r per segment, O (mid-span) to E (support): "
+        + ", ".join(f"{x:.3f}" for x in result.thickness_profile)
+        + "; control values: "
+        + ", ".join(f"{x:.3f}" for x in result.controls)
+        + "."
+    )
+
+
 def report_design(result, batch, grid, iu, met, u_best, uniform_s, ok, h0, kw, ref) -> list[str]:
     v = result.values
     gain = 1 - v["deceleration_10ms"] / u_best["deceleration_10ms"]
@@ -639,11 +650,7 @@ def report_design(result, batch, grid, iu, met, u_best, uniform_s, ok, h0, kw, r
         f"counts them), {result.wall_time_s:.0f} s.",
         "",
         *loop_costs(result),
-        "Profile h/h_r per segment, O (mid-span) to E (support): "
-        + ", ".join(f"{x:.3f}" for x in result.thickness_profile)
-        + "; control values: "
-        + ", ".join(f"{x:.3f}" for x in result.controls)
-        + ".",
+        profile_text(result),
         "",
         f"Uniform beams: {len(grid)} thicknesses h/h_r = {grid[0]:g} ... {grid[-1]:g} (mass "
         f"<= {BUDGET}), one vmapped batch of the sharp model ({uniform_s:.1f} s, compile "

@@ -162,11 +162,7 @@ def main() -> None:
         f"{result.wall_time_s:.0f} s.",
         "",
         *d.loop_costs(result),
-        "Control values (O to E): "
-        + ", ".join(f"{x:.3f}" for x in result.controls)
-        + "; profile h/h_r per segment: "
-        + ", ".join(f"{x:.3f}" for x in result.thickness_profile)
-        + ".",
+        d.profile_text(result),
         "",
         f"Uniform beams on this mesh: h/h_r = {grid[0]:g} ... {grid[-1]:g} (20, mass <= "
         f"{d.BUDGET}), one vmapped batch ({uniform_s:.1f} s, compile included; statuses "
