@@ -394,57 +394,67 @@ class _SweepQueue:
         a retry handed back in the tail (`refill`); None until then."""
         with self.compiling:
             have = self.programs.get(size)
-            if have is not None and (have[2] is not None or not refill):
-                return have
-            tick = time.perf_counter()
-            saved = getattr(_SAVED, "s", 0.0)
-            flat, clock, y = state
-            zeros = np.zeros(size, np.int64)
-            p, d, steps, factor = self.batch(zeros, zeros, size)
-            # through the store of serialized programs when it is on (the CLI's): a new
-            # process then loads them instead of tracing diffrax's loop again (`_export`)
-            refill_args = (flat, clock, y, jnp.zeros(size, bool), p, d, self.mesh,
-                           self.smoothing, self.settings, steps, factor)  # fmt: skip
-            if have is not None:  # a tail size's refill program, at its first use
-                late = _export.compile_program(_refill, *refill_args, name="queue_refill")
+            if have is None:
+                self.programs[size] = self._make(size, state, refill)
+            elif refill and have[2] is None:  # a tail size's refill program, at its first use
+                tick = time.perf_counter()
+                late = _export.compile_program(
+                    _refill, *self._refill_args(size, state), name="queue_refill"
+                )
                 self.programs[size] = (*have[:2], late)
                 self.compile_times.append(time.perf_counter() - tick)
-                return self.programs[size]
-            self.programs[size] = (
-                _export.compile_program(
-                    _segment, flat, clock, y, self.settings, self.segment, name="queue_segment"
-                ),
-                _export.compile_program(_report, flat, clock, y, name="queue_report"),
-                _export.compile_program(_refill, *refill_args, name="queue_refill")
-                if refill
-                else None,
-            )
-            self.compile_times.append(time.perf_counter() - tick)
-            made = [program.make_s for program in self.programs[size] if program is not None]
-            # what a new size costs: the first size's making, recorded by the process that
-            # made it when it was loaded here from the store (its load took milliseconds);
-            # else the time taken with what a persistent-cache hit saved, never less than
-            # this process measured for the same programs before (`_MAKE_S`)
-            took = self.compile_times[-1] + getattr(_SAVED, "s", 0.0) - saved
-            stored = all(program.source == "loaded" for program in self.programs[size] if program)
-            kind = _export.signature((self.segment, refill, *refill_args))  # shapes, statics
-            known = _MAKE_S.get(kind, 0.0)
-            cost = sum(made) if stored and None not in made else max(took, known)
-            _MAKE_S[kind] = max(cost, known)
-            self.make_times.append(cost)
             return self.programs[size]
+
+    def _refill_args(self, size: int, state) -> tuple:
+        """Arguments of the refill program's signature for `size` slots of `state`."""
+        zeros = np.zeros(size, np.int64)
+        p, d, steps, factor = self.batch(zeros, zeros, size)
+        return (*state, jnp.zeros(size, bool), p, d, self.mesh, self.smoothing, self.settings,
+                steps, factor)  # fmt: skip
+
+    def _make(self, size: int, state, refill: bool) -> tuple:
+        """`programs_for`'s programs for a new size (the refill program only if `refill`),
+        with what making them cost recorded for the tail rule (`make_times`, `_MAKE_S`)."""
+        tick = time.perf_counter()
+        saved = getattr(_SAVED, "s", 0.0)
+        flat, clock, y = state
+        refill_args = self._refill_args(size, state)
+        # through the store of serialized programs when it is on (the CLI's): a new process
+        # then loads them instead of tracing diffrax's loop again (`_export`)
+        programs = (
+            _export.compile_program(
+                _segment, flat, clock, y, self.settings, self.segment, name="queue_segment"
+            ),
+            _export.compile_program(_report, flat, clock, y, name="queue_report"),
+            _export.compile_program(_refill, *refill_args, name="queue_refill") if refill else None,
+        )
+        self.compile_times.append(time.perf_counter() - tick)
+        made = [program for program in programs if program is not None]
+        # what a new size costs: the first size's making, recorded by the process that made it
+        # when it was loaded here from the store (its load took milliseconds); else the time
+        # taken with what a persistent-cache hit saved, never less than this process measured
+        # for the same programs before (`_MAKE_S`)
+        took = self.compile_times[-1] + getattr(_SAVED, "s", 0.0) - saved
+        recorded = [program.make_s for program in made]
+        stored = all(program.source == "loaded" for program in made)
+        kind = _export.signature((self.segment, refill, *refill_args))  # shapes, statics
+        known = _MAKE_S.get(kind, 0.0)
+        cost = sum(recorded) if stored and None not in recorded else max(took, known)
+        _MAKE_S[kind] = max(cost, known)
+        self.make_times.append(cost)
+        return programs
 
     def blank(self, size: int, p, d, steps, factor) -> tuple:
         """Zeros of the shapes and types of `size` started slots (flat scene, clock, state):
-        what the refill program takes in when it starts every slot (`fill_slots`)."""
+        what the refill program takes in when it starts every slot (`fill_slots`); numpy
+        zeros, so that no program is made for them."""
         if size not in self.blanks:
             shapes = eqx.filter_eval_shape(
                 _start, p, d, self.mesh, self.smoothing, self.settings, steps, factor
             )
-            zero = lambda s: np.zeros(s.shape, s.dtype)  # noqa: E731  (no program to make)
-            is_shape = lambda x: isinstance(x, jax.ShapeDtypeStruct)  # noqa: E731
             self.blanks[size] = jax.tree_util.tree_map(
-                lambda x: zero(x) if is_shape(x) else x, shapes, is_leaf=is_shape
+                lambda x: np.zeros(x.shape, x.dtype) if isinstance(x, jax.ShapeDtypeStruct) else x,
+                shapes,
             )
         return self.blanks[size]
 
