@@ -277,22 +277,44 @@ def recheck(p, scales, mesh, designs: dict) -> tuple[dict, dict]:
     return out, problems
 
 
+def lanes(problem, rows) -> tuple[dict, list[str]]:
+    """Sharp values of `rows` (control values, one row per collision) in one vmapped batch,
+    and each row's status."""
+    values, (codes, _) = _sharp_lanes(jnp.asarray(np.asarray(rows, float)), problem)
+    statuses = [m.RESULTS(int(k)).status for k in np.asarray(codes)]
+    return {k: np.asarray(v) for k, v in values.items()}, statuses
+
+
+def best_record(values: dict, grid: np.ndarray, statuses: list[str]) -> dict:
+    """The best uniform beam of a batch of the thicknesses `grid` (`best_uniform`): its
+    values, thickness, whether it meets the limit and its status."""
+    j, met = best_uniform(values, grid, LIMIT)
+    return {k: float(v[j]) for k, v in values.items()} | {
+        "thickness": float(grid[j]),
+        "met": met,
+        "status": statuses[j],
+    }
+
+
 def uniform_rechecks(problems: dict, grid: np.ndarray) -> dict:
     """The best uniform beam meeting the limits on each check's own mesh and step (section
     2's comparison made again there): the uniform thicknesses `grid` in one vmapped batch per
     check. Outside the cold start's clock (the example needs no such batch)."""
     out = {}
     for check, problem in problems.items():
-        rows = jnp.asarray(np.repeat(grid[:, None], problem.points, 1))
-        values, (codes, _) = _sharp_lanes(rows, problem)
-        values = {k: np.asarray(v) for k, v in values.items()}
-        j, met = best_uniform(values, grid, LIMIT)
-        out[check] = {k: float(v[j]) for k, v in values.items()} | {
-            "thickness": float(grid[j]),
-            "met": met,
-            "status": m.RESULTS(int(np.asarray(codes)[j])).status,
-        }
+        values, statuses = lanes(problem, np.repeat(grid[:, None], problem.points, 1))
+        out[check] = best_record(values, grid, statuses)
     return out
+
+
+def cores_used() -> tuple[str, str]:
+    """(the `taskset` prefix of the command when this process is pinned, else "", and the
+    cores it ran on, in words)."""
+    allowed = sorted(os.sched_getaffinity(0))
+    if len(allowed) < (os.cpu_count() or 1):  # pinned: say so, with the command that did it
+        pinned = f"taskset -c {','.join(map(str, allowed))} "
+        return pinned, f"{len(allowed)} of {os.cpu_count()} cores (taskset)"
+    return "", f"{os.cpu_count()} cores"
 
 
 def cold_design(p, scales, mesh, kw: dict):
@@ -361,11 +383,8 @@ def main() -> None:
     # uniform beams under the same budget, one vmapped batch
     grid = np.linspace(BOUNDS[0], BUDGET * h0, 20)
     tick = time.perf_counter()
-    uniform = jnp.asarray(np.repeat(grid[:, None], problem.points, 1))
-    batch, (codes, _) = _sharp_lanes(uniform, problem)
-    batch = {k: np.asarray(v) for k, v in batch.items()}
+    batch, ok = lanes(problem, np.repeat(grid[:, None], problem.points, 1))
     uniform_s = time.perf_counter() - tick
-    ok = [m.RESULTS(int(k)).status for k in np.asarray(codes)]
     reference = floats(_sharp(c0, problem)[0])  # the uniform h_b/h_r = 2.5 beam (mass 1)
     iu, uniform_met = best_uniform(batch, grid, LIMIT)
     u_best = {k: float(v[iu]) for k, v in batch.items()}
@@ -512,12 +531,12 @@ def main() -> None:
         print("pareto", lim, graded_front[lim].values, flush=True)
     loop_s = time.perf_counter() - tick
     tick = time.perf_counter()
-    lanes = jnp.asarray(np.full((len(limits), problem.points), h0))
-    jax.block_until_ready(_sharp_lanes(lanes, problem))
+    starts = jnp.asarray(np.full((len(limits), problem.points), h0))
+    jax.block_until_ready(_sharp_lanes(starts, problem))
     w_lanes = {k: jnp.full(len(limits), float(v)) for k, v in w0.items()}
     stored_p = stored_checkpoints(problem)
     jax.block_until_ready(
-        _surrogate_grad_lanes(lanes, w_lanes, problem, "deceleration_10ms", stored_p)
+        _surrogate_grad_lanes(starts, w_lanes, problem, "deceleration_10ms", stored_p)
     )
     front_compile_s = time.perf_counter() - tick
     batched = o.design_front(problem, "deflection", limits, **front_kw)
@@ -529,12 +548,7 @@ def main() -> None:
     # --- the report -----------------------------------------------------------------------
     date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     flag = "".join(f" {a}" for a in sys.argv[1:])
-    allowed = sorted(os.sched_getaffinity(0))
-    if len(allowed) < (os.cpu_count() or 1):  # pinned: say so, with the command that did it
-        pinned = f"taskset -c {','.join(map(str, allowed))} "
-        where = f"{len(allowed)} of {os.cpu_count()} cores (taskset)"
-    else:
-        pinned, where = "", f"{os.cpu_count()} cores"
+    pinned, where = cores_used()
     lines = [
         "# Graded-beam design: gradient cost, against uniform beams and a derivative-free "
         f"search ({'a coarse mesh' if args.quick else APOSTROPHE_MESH})",

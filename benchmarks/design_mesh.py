@@ -43,19 +43,10 @@ import sys  # noqa: E402
 import _bench  # noqa: E402
 import design as d  # noqa: E402  (design.py: the problem, its cold start, the recheck)
 import jax  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import msfd_jax as m  # noqa: E402
 import optimise as o  # noqa: E402
-from optimise._front import _sharp_lanes  # noqa: E402  (the sharp model, vmapped over rows)
-
-
-def lanes(problem, rows) -> tuple[dict, list[str]]:
-    """Sharp values of `rows` (control values, one row per collision) in one vmapped batch."""
-    values, (codes, _) = _sharp_lanes(jnp.asarray(np.asarray(rows, float)), problem)
-    statuses = [m.RESULTS(int(k)).status for k in np.asarray(codes)]
-    return {k: np.asarray(v) for k, v in values.items()}, statuses
 
 
 def main() -> None:
@@ -85,7 +76,7 @@ def main() -> None:
     problem, result, cold, warm_runs = d.cold_design(p, scales, fine, kw)
     print("design on", fine, result.status, result.values, flush=True)
     tick = time.perf_counter()
-    batch, statuses = lanes(problem, np.repeat(grid[:, None], problem.points, 1))
+    batch, statuses = d.lanes(problem, np.repeat(grid[:, None], problem.points, 1))
     uniform_s = time.perf_counter() - tick
     iu, met = d.best_uniform(batch, grid, d.LIMIT)
     u_best = {k: float(v[iu]) for k, v in batch.items()}
@@ -114,29 +105,20 @@ def main() -> None:
         mesh = base.refined(f)
         tick = time.perf_counter()
         on = o.graded_problem(p, scales, mesh, bounds=d.BOUNDS)  # K = 6, as both designs
-        values, st = lanes(on, rows)
+        values, st = d.lanes(on, rows)
         studied[f] = (mesh, values, st, time.perf_counter() - tick)
         print(f"study x{f}: {time.perf_counter() - tick:.0f} s", flush=True)
 
     # --- 4: the recheck's best uniform beams (the x4 mesh at the default step: the study's) --
     half_checks = {k: v for k, v in check_problems.items() if k != "2x finer mesh, step x 1"}
     own_uniform = d.uniform_rechecks(half_checks, grid)
-    values = studied[twice][1]
-    j, met_x = d.best_uniform({k: v[: len(grid)] for k, v in values.items()}, grid, d.LIMIT)
-    own_uniform["2x finer mesh, step x 1"] = {k: float(v[j]) for k, v in values.items()} | {
-        "thickness": float(grid[j]),
-        "met": met_x,
-        "status": studied[twice][2][j],
-    }
+    _, values, statuses, _ = studied[twice]
+    uniform_rows = {k: v[: len(grid)] for k, v in values.items()}
+    own_uniform["2x finer mesh, step x 1"] = d.best_record(uniform_rows, grid, statuses)
 
     # --- the report -------------------------------------------------------------------------
     date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
-    allowed = sorted(os.sched_getaffinity(0))
-    if len(allowed) < (os.cpu_count() or 1):
-        pinned = f"taskset -c {','.join(map(str, allowed))} "
-        where = f"{len(allowed)} of {os.cpu_count()} cores (taskset)"
-    else:
-        pinned, where = "", f"{os.cpu_count()} cores"
+    pinned, where = d.cores_used()
     flag = "".join(f" {a}" for a in sys.argv[1:])
     v = result.values
     gain = 1 - v["deceleration_10ms"] / u_best["deceleration_10ms"]
